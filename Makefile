@@ -1,0 +1,72 @@
+# xfemcontact -- set-up, run, test, bench.
+#
+# `make run` and `make test` install whatever is missing (Debian packages, the
+# virtual environment, the package itself) and are quick and quiet when all is
+# already there.
+
+SHELL := /bin/bash
+.DEFAULT_GOAL := help
+
+# PETSc from Debian: petsc4py's path hook needs PETSC_DIR before Python starts.
+export PETSC_DIR ?= /usr/lib/petscdir/petsc3.18/x86_64-linux-gnu-real
+# Open MPI refuses root without these; CI machines run as root.
+export OMPI_ALLOW_RUN_AS_ROOT := 1
+export OMPI_ALLOW_RUN_AS_ROOT_CONFIRM := 1
+export OMPI_MCA_rmaps_base_oversubscribe := 1
+# One BLAS thread per MPI process: MUMPS parallelism comes from MPI.
+export OPENBLAS_NUM_THREADS ?= 1
+export OMP_NUM_THREADS ?= 1
+
+DEBS := python3-petsc4py-real python3-mpi4py openmpi-bin python3-meshio \
+        python3-h5py python3-numpy python3-scipy python3-matplotlib \
+        python3-pytest python3-venv
+PYPI := hypothesis pymetis
+
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP_DEBS := $(VENV)/.debs-installed
+STAMP_PKG := $(VENV)/.package-installed
+CASE ?= cases/ssnv509a.toml
+OUT ?= out
+
+.PHONY: help setup run test test-fast bench clean
+
+help:
+	@echo "make run     solve $(CASE) and print its test table (output in $(OUT)/)"
+	@echo "make test    run the whole test suite (MPI tests included)"
+	@echo "make bench   run the benchmark series (bench/)"
+	@echo "make setup   install Debian packages, .venv and the package only"
+
+setup: $(STAMP_PKG)
+
+$(STAMP_DEBS):
+	@missing=""; for p in $(DEBS); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages:$$missing"; \
+	  export DEBIAN_FRONTEND=noninteractive; \
+	  apt-get update -qq && apt-get install -y -qq --no-install-recommends $$missing >/dev/null; \
+	fi
+	@test -x $(PY) || /usr/bin/python3 -m venv --system-site-packages $(VENV)
+	@touch $@
+
+$(STAMP_PKG): $(STAMP_DEBS) setup.py
+	@$(PY) -m pip install -q --disable-pip-version-check $(PYPI)
+	@$(PY) -m pip install -q --disable-pip-version-check --no-build-isolation --no-deps -e .
+	@touch $@
+
+run: $(STAMP_PKG)
+	$(VENV)/bin/xfemcontact run $(CASE) -o $(OUT) --overwrite
+
+test: $(STAMP_PKG)
+	$(PY) -m pytest -q tests
+
+test-fast: $(STAMP_PKG)
+	$(PY) -m pytest -q -m "not slow" tests
+
+bench: $(STAMP_PKG)
+	$(PY) bench/run_series.py
+
+clean:
+	rm -rf $(VENV) out build *.egg-info .pytest_cache

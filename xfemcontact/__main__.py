@@ -1,0 +1,3 @@
+from xfemcontact.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,144 @@
+"""Degrees of freedom as a PetscSection on the DMPlex points.
+
+Four fields, each on the points (vertices and edges) that carry the node:
+
+==========  ===============  =======================================================
+field       components       carried by
+==========  ===============  =======================================================
+0 u         DX, DY           every node
+1 h         H1X, H1Y         Heaviside-enriched nodes
+2 LAGS_C    contact pressure representative vertices of the multiplier space
+3 LAGS_F1   friction         the same vertices
+==========  ===============  =======================================================
+
+Within a point, dofs are ordered field by field (PETSc's point-major layout), so
+node ``i``'s local dofs are ``off[i] + (DX, DY, [H1X, H1Y], [LAGS_C, LAGS_F1])``.
+Imposed components (Dirichlet conditions, Heaviside dofs forced to zero) are
+section constraints: they are in the local vectors and out of the global system,
+so every KSP/PC sees the reduced, symmetric operator.
+
+Index arrays use -1 for "absent"; global arrays also use -1 for constrained
+dofs (PETSc ignores negative indices in MatSetValues/VecSetValues).
+"""
+import numpy as np
+
+from xfemcontact._petsc import PETSc
+
+FIELDS = ("u", "h", "LAGS_C", "LAGS_F1")
+COMPONENTS = {"u": ("DX", "DY"), "h": ("H1X", "H1Y"), "LAGS_C": ("LAGS_C",), "LAGS_F1": ("LAGS_F1",)}
+
+
+class DofLayout:
+    """The dofs of one process's nodes and their global numbers.
+
+    Parameters
+    ----------
+    mesh : LocalMesh
+    enriched : (n,) bool
+        Nodes carrying Heaviside dofs.
+    multiplier : (n,) bool
+        Vertices carrying LAGS_C and LAGS_F1 (the representatives of the
+        multiplier space).
+    fixed : (n, 4) bool
+        Constrained components (DX, DY, H1X, H1Y); H components only where enriched.
+
+    All three must agree on points shared by several processes.
+    """
+
+    def __init__(self, mesh, enriched, multiplier, fixed):
+        n = len(mesh.x)
+        self.mesh = mesh
+        self.enriched = np.asarray(enriched, bool)
+        self.multiplier = np.asarray(multiplier, bool)
+        self.fixed = np.asarray(fixed, bool) & np.c_[np.ones((n, 2), bool), self.enriched, self.enriched]
+        self.section = self._build_section()
+        dm = mesh.dm
+        dm.setSection(self.section)
+        self.global_section = dm.getGlobalSection()
+        lg = dm.getLGMap().getIndices() if self.section.getStorageSize() else np.zeros(0, np.int64)
+        self._index_arrays(np.asarray(lg, dtype=np.int64))
+
+    # -- section ------------------------------------------------------------
+    def _dofs_per_field(self):
+        n = len(self.enriched)
+        return np.c_[np.full(n, 2), 2 * self.enriched, self.multiplier, self.multiplier].astype(np.int64)
+
+    def _build_section(self):
+        mesh = self.mesh
+        sec = PETSc.Section().create(comm=mesh.comm)
+        sec.setNumFields(len(FIELDS))
+        for f, name in enumerate(FIELDS):
+            sec.setFieldName(f, name)
+            sec.setFieldComponents(f, len(COMPONENTS[name]))
+        sec.setChart(*mesh.dm.getChart())
+        per_field = self._dofs_per_field()
+        ncons = self.fixed.sum(axis=1)
+        for p, dofs, nc, fix in zip(mesh.node_points.tolist(), per_field.tolist(),
+                                    ncons.tolist(), self.fixed.tolist()):
+            sec.setDof(p, sum(dofs))
+            for f, d in enumerate(dofs):
+                if d:
+                    sec.setFieldDof(p, f, d)
+            if nc:
+                sec.setConstraintDof(p, nc)
+                if fix[0] or fix[1]:
+                    sec.setFieldConstraintDof(p, 0, fix[0] + fix[1])
+                if fix[2] or fix[3]:
+                    sec.setFieldConstraintDof(p, 1, fix[2] + fix[3])
+        sec.setUp()
+        for i in np.nonzero(ncons)[0]:
+            p, fix = int(mesh.node_points[i]), self.fixed[i]
+            sec.setConstraintIndices(p, np.nonzero(fix)[0].astype(PETSc.IntType))
+            if fix[0] or fix[1]:
+                sec.setFieldConstraintIndices(p, 0, np.nonzero(fix[:2])[0].astype(PETSc.IntType))
+            if fix[2] or fix[3]:
+                sec.setFieldConstraintIndices(p, 1, np.nonzero(fix[2:])[0].astype(PETSc.IntType))
+        return sec
+
+    # -- index arrays -------------------------------------------------------
+    def _index_arrays(self, lg):
+        mesh = self.mesh
+        pstart, pend = mesh.dm.getChart()
+        dof_of_point = np.zeros(pend - pstart, dtype=np.int64)
+        per_field = self._dofs_per_field()
+        dof_of_point[mesh.node_points] = per_field.sum(axis=1)
+        off_of_point = np.concatenate([[0], np.cumsum(dof_of_point)[:-1]])
+        off = off_of_point[mesh.node_points]
+        if len(off):
+            probe = int(mesh.node_points[-1])
+            assert self.section.getOffset(probe) == off[-1], "unexpected PetscSection layout"
+        self.local_size = int(dof_of_point.sum())
+        e, m = self.enriched, self.multiplier
+        self.u_local = off[:, None] + np.arange(2)
+        self.h_local = np.where(e[:, None], off[:, None] + 2 + np.arange(2), -1)
+        lag0 = off + 2 + 2 * e
+        self.lag_local = np.where(m[:, None], lag0[:, None] + np.arange(2), -1)
+
+        def glob(local):
+            g = np.where(local >= 0, lg[np.maximum(local, 0)] if len(lg) else -1, -1)
+            return np.where(g >= 0, g, -1)
+
+        self.u_global, self.h_global, self.lag_global = glob(self.u_local), glob(self.h_local), glob(self.lag_local)
+        self.owned_size = self.global_section.getConstrainedStorageSize()
+        self.global_size = self.mesh.comm.tompi4py().allreduce(self.owned_size)
+        self.ownership_start = self.mesh.comm.tompi4py().exscan(self.owned_size) or 0
+
+    # -- vectors ------------------------------------------------------------
+    def create_global_vec(self):
+        return self.mesh.dm.createGlobalVec()
+
+    def create_local_vec(self):
+        return self.mesh.dm.createLocalVec()
+
+    def counts(self):
+        """Number of free dofs of each kind over all processes."""
+        owned = self.mesh.node_owned
+        free = ~self.fixed
+        mpi = self.mesh.comm.tompi4py()
+        local = {
+            "displacement": int(free[owned, :2].sum()),
+            "heaviside": int((free[owned, 2:] & self.enriched[owned, None]).sum()),
+            "LAGS_C": int(self.multiplier[owned].sum()),
+            "LAGS_F1": int(self.multiplier[owned].sum()),
+        }
+        return {k: mpi.allreduce(v) for k, v in local.items()}

@@ -1,0 +1,185 @@
+"""Reference elements: QUAD8 (serendipity), TRIA6, SEG3 and their linear companions.
+
+Node order: vertices counter-clockwise, then mid-edge nodes, edge ``k`` joining
+vertex ``k`` and ``k+1``.  Reference domains: QUAD8 on [-1, 1]^2, TRIA6 on the
+triangle (0,0)-(1,0)-(0,1), SEG3 on [-1, 1] with nodes at -1, +1, 0.
+
+All evaluations are vectorised: ``xi`` has shape ``(..., 2)`` and the results
+have shape ``(..., nn)`` for values and ``(..., nn, 2)`` for reference gradients.
+"""
+from functools import lru_cache
+
+import numpy as np
+
+from xfemcontact.fem import quadrature
+
+
+class Element:
+    name = None
+    nv = nn = None
+    ref_nodes = None        # (nn, 2) reference coordinates of the nodes
+    edges = None            # (ne, 3) local nodes (a, b, mid) of each edge
+    reverse = None          # node permutation turning a clockwise cell counter-clockwise
+    ref_area_inv = None     # 1 / measure of the reference domain
+
+    def shape(self, xi):
+        raise NotImplementedError
+
+    def dshape(self, xi):
+        raise NotImplementedError
+
+    def shape_linear(self, xi):
+        """Values ``(..., nv)`` of the linear companion (TRIA3 / QUAD4) functions."""
+        raise NotImplementedError
+
+    def dshape_linear(self, xi):
+        raise NotImplementedError
+
+    def quadrature(self, degree):
+        raise NotImplementedError
+
+    # -- geometry of physical cells ---------------------------------------
+    def jacobians(self, x, xi):
+        """Jacobians ``dx/dxi`` of cells ``x (ne, nn, 2)`` at ``xi (nq, 2)``: ``(ne, nq, 2, 2)``."""
+        # one BLAS product over the node index: (ne, 2, nq, 2) -> (ne, nq, 2, 2)
+        return np.tensordot(x, self.dshape(xi), axes=([1], [1])).transpose(0, 2, 1, 3)
+
+    def jacobian_dets(self, x, xi):
+        J = self.jacobians(x, xi)
+        return J[..., 0, 0] * J[..., 1, 1] - J[..., 0, 1] * J[..., 1, 0]
+
+    @property
+    def check_points(self):
+        """Points where a cell's Jacobian is checked: nodes and a Gauss rule."""
+        q, _ = self.quadrature(4)
+        return np.r_[self.ref_nodes, q]
+
+    def contains(self, xi, tol=1e-12):
+        """Whether reference points ``xi (..., 2)`` lie in the reference domain."""
+        raise NotImplementedError
+
+
+class Tria6(Element):
+    name = "TRIA6"
+    nv, nn = 3, 6
+    ref_nodes = np.array([[0, 0], [1, 0], [0, 1], [0.5, 0], [0.5, 0.5], [0, 0.5]], float)
+    edges = np.array([[0, 1, 3], [1, 2, 4], [2, 0, 5]])
+    reverse = np.array([0, 2, 1, 5, 4, 3])
+    ref_area_inv = 2.0
+
+    @staticmethod
+    def _bary(xi):
+        x, y = xi[..., 0], xi[..., 1]
+        return 1.0 - x - y, x, y
+
+    def shape(self, xi):
+        l0, l1, l2 = self._bary(xi)
+        return np.stack([l0 * (2 * l0 - 1), l1 * (2 * l1 - 1), l2 * (2 * l2 - 1),
+                         4 * l0 * l1, 4 * l1 * l2, 4 * l2 * l0], axis=-1)
+
+    def dshape(self, xi):
+        l0, l1, l2 = self._bary(xi)
+        # d(l0, l1, l2)/d(x, y) = (-1,-1), (1,0), (0,1)
+        dx = np.stack([-(4 * l0 - 1), 4 * l1 - 1, 0 * l2,
+                       4 * (l0 - l1), 4 * l2, -4 * l2], axis=-1)
+        dy = np.stack([-(4 * l0 - 1), 0 * l1, 4 * l2 - 1,
+                       -4 * l1, 4 * l1, 4 * (l0 - l2)], axis=-1)
+        return np.stack([dx, dy], axis=-1)
+
+    def shape_linear(self, xi):
+        return np.stack(self._bary(xi), axis=-1)
+
+    def dshape_linear(self, xi):
+        g = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
+        return np.broadcast_to(g, xi.shape[:-1] + (3, 2))
+
+    def quadrature(self, degree):
+        return quadrature.gauss_triangle(degree)
+
+    def contains(self, xi, tol=1e-12):
+        return (xi[..., 0] >= -tol) & (xi[..., 1] >= -tol) & (xi.sum(-1) <= 1 + tol)
+
+
+class Quad8(Element):
+    name = "QUAD8"
+    nv, nn = 4, 8
+    ref_nodes = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1],
+                          [0, -1], [1, 0], [0, 1], [-1, 0]], float)
+    edges = np.array([[0, 1, 4], [1, 2, 5], [2, 3, 6], [3, 0, 7]])
+    reverse = np.array([0, 3, 2, 1, 7, 6, 5, 4])
+    ref_area_inv = 0.25
+
+    def shape(self, xi):
+        x, y = xi[..., 0, None], xi[..., 1, None]
+        xc, yc = self.ref_nodes[:4, 0], self.ref_nodes[:4, 1]
+        corner = 0.25 * (1 + x * xc) * (1 + y * yc) * (x * xc + y * yc - 1)
+        mid_x = 0.5 * (1 - x * x) * (1 + y * np.array([-1.0, 1.0]))     # nodes 4, 6
+        mid_y = 0.5 * (1 + x * np.array([1.0, -1.0])) * (1 - y * y)     # nodes 5, 7
+        return np.concatenate([corner, mid_x[..., :1], mid_y[..., :1],
+                               mid_x[..., 1:], mid_y[..., 1:]], axis=-1)
+
+    def dshape(self, xi):
+        x, y = xi[..., 0, None], xi[..., 1, None]
+        xc, yc = self.ref_nodes[:4, 0], self.ref_nodes[:4, 1]
+        cdx = 0.25 * xc * (1 + y * yc) * (2 * x * xc + y * yc)
+        cdy = 0.25 * yc * (1 + x * xc) * (x * xc + 2 * y * yc)
+        s = np.array([-1.0, 1.0])
+        mxdx = -x * (1 + y * s)                  # d/dx of nodes 4, 6
+        mxdy = 0.5 * (1 - x * x) * s
+        t = np.array([1.0, -1.0])
+        mydx = 0.5 * t * (1 - y * y)             # nodes 5, 7
+        mydy = -(1 + x * t) * y
+        dx = np.concatenate([cdx, mxdx[..., :1], mydx[..., :1], mxdx[..., 1:], mydx[..., 1:]], -1)
+        dy = np.concatenate([cdy, mxdy[..., :1], mydy[..., :1], mxdy[..., 1:], mydy[..., 1:]], -1)
+        return np.stack([dx, dy], axis=-1)
+
+    def shape_linear(self, xi):
+        x, y = xi[..., 0, None], xi[..., 1, None]
+        xc, yc = self.ref_nodes[:4, 0], self.ref_nodes[:4, 1]
+        return 0.25 * (1 + x * xc) * (1 + y * yc)
+
+    def dshape_linear(self, xi):
+        x, y = xi[..., 0, None], xi[..., 1, None]
+        xc, yc = self.ref_nodes[:4, 0], self.ref_nodes[:4, 1]
+        return np.stack([0.25 * xc * (1 + y * yc), 0.25 * yc * (1 + x * xc)], axis=-1)
+
+    def quadrature(self, degree):
+        return quadrature.gauss_square(max(1, (degree + 2) // 2))
+
+    def contains(self, xi, tol=1e-12):
+        return np.all(np.abs(xi) <= 1 + tol, axis=-1)
+
+
+class Seg3:
+    """Quadratic segment on [-1, 1], nodes at -1, +1, 0."""
+
+    name = "SEG3"
+    nn = 3
+
+    @staticmethod
+    def shape(s):
+        s = np.asarray(s)[..., None]
+        return np.concatenate([0.5 * s * (s - 1), 0.5 * s * (s + 1), 1 - s * s], axis=-1)
+
+    @staticmethod
+    def dshape(s):
+        s = np.asarray(s)[..., None]
+        return np.concatenate([s - 0.5, s + 0.5, -2 * s], axis=-1)
+
+
+@lru_cache(maxsize=None)
+def element(name):
+    """The reference element called ``name`` ("QUAD8" or "TRIA6")."""
+    return {"QUAD8": Quad8, "TRIA6": Tria6}[name]()
+
+
+def physical_gradients(dshape_ref, J):
+    """Gradients ``dN/dx (..., nn, 2)`` from reference ones and Jacobians ``(..., 2, 2)``.
+
+    Returns ``(dNdx, detJ)``.
+    """
+    det = J[..., 0, 0] * J[..., 1, 1] - J[..., 0, 1] * J[..., 1, 0]
+    inv = np.stack([np.stack([J[..., 1, 1], -J[..., 0, 1]], -1),
+                    np.stack([-J[..., 1, 0], J[..., 0, 0]], -1)], -2) / det[..., None, None]
+    # dN/dx_j = sum_i dN/dxi_i dxi_i/dx_j
+    return dshape_ref @ inv, det

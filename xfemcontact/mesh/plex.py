@@ -1,0 +1,354 @@
+"""The mesh in DMPlex, distributed over the processes, and its NumPy view per process.
+
+Vertices, edges and cells of the quadratic mesh are DMPlex points: a vertex point
+carries a corner node, an edge point carries the mid-edge node, so a QUAD8 or
+TRIA6 cell's nodes are exactly the points of its closure.  Mesh groups are
+DMLabels named like the groups (value 1): cell groups label cells, edge groups
+label edges, node groups label vertices or edges.  A nodal field (coordinates of
+every node, mid-edge nodes included, and the node's index in the input mesh) and
+a cell field (the cell's index in the input mesh) are distributed with the mesh,
+so that curved edges survive distribution and every decision that must not
+depend on the partition can be keyed by input indices.
+
+Partitioning is chosen with the PETSc options database
+(``-petscpartitioner_type ptscotch|simple|shell...``).
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from xfemcontact._petsc import PETSc
+from xfemcontact.errors import MeshError
+from xfemcontact.fem.elements import element
+
+#: labels PETSc creates itself; never confused with mesh groups
+_INTERNAL_LABELS = {"depth", "celltype", "boundary"}
+_BOUNDARY = "boundary"
+
+
+def _edge_keys(a, b, n):
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    return lo.astype(np.int64) * n + hi
+
+
+def _build_serial(raw, comm):
+    """DMPlex of ``raw`` on rank 0 (empty elsewhere), with labels and boundary marks."""
+    nv = raw.n_vertices_per_cell
+    node_of_point = None
+    if comm.rank == 0:
+        vnodes = raw.vertex_nodes
+        vindex = np.full(len(raw.points), -1, dtype=np.int64)
+        vindex[vnodes] = np.arange(len(vnodes))
+        cells = vindex[raw.cells[:, :nv]].astype(np.int32)
+        coords = raw.points[vnodes]
+    else:
+        coords, cells = np.zeros((0, 2)), np.zeros((0, nv), dtype=np.int32)
+    dm = PETSc.DMPlex().createFromCellList(2, cells, coords, interpolate=True, comm=comm)
+    dm.setName("mesh")
+    if comm.rank == 0:
+        node_of_point = _match_nodes(dm, raw, vnodes, vindex)
+        _label_groups(dm, raw, vnodes, vindex, node_of_point)
+    else:
+        node_of_point = np.full(dm.getChart()[1] - dm.getChart()[0], -1, dtype=np.int64)
+    dm.createLabel(_BOUNDARY)
+    dm.markBoundaryFaces(_BOUNDARY, 1)
+    return dm, node_of_point
+
+
+def _match_nodes(dm, raw, vnodes, vindex):
+    """Input node index of every vertex and edge point (-1 for cells)."""
+    pstart, pend = dm.getChart()
+    vs, ve = dm.getDepthStratum(0)
+    es, ee = dm.getDepthStratum(1)
+    node_of_point = np.full(pend - pstart, -1, dtype=np.int64)
+    node_of_point[vs:ve] = vnodes
+    nvert = len(vnodes)
+    cone = np.array([dm.getCone(e) for e in range(es, ee)], dtype=np.int64).reshape(-1, 2) - vs
+    el = element(raw.cell_type)
+    ed = raw.cells[:, el.edges]                                   # (ne, nedges, 3)
+    keys = _edge_keys(vindex[ed[..., 0]], vindex[ed[..., 1]], nvert).ravel()
+    keys, first = np.unique(keys, return_index=True)
+    mids = ed[..., 2].ravel()[first]
+    pos = np.searchsorted(keys, _edge_keys(cone[:, 0], cone[:, 1], nvert))
+    node_of_point[es:ee] = mids[pos]
+    return node_of_point
+
+
+def _label_groups(dm, raw, vnodes, vindex, node_of_point):
+    """One DMLabel per mesh group (value 1) on rank 0."""
+    cs, ce = dm.getHeightStratum(0)
+    vs = dm.getDepthStratum(0)[0]
+    es, ee = dm.getDepthStratum(1)
+    nvert = len(vnodes)
+    edge_nodes = node_of_point[es:ee]
+    # node index -> point (vertex or edge)
+    point_of_node = np.full(len(raw.points), -1, dtype=np.int64)
+    point_of_node[vnodes] = np.arange(vs, vs + nvert)
+    point_of_node[edge_nodes] = np.arange(es, ee)
+    cone = np.array([dm.getCone(e) for e in range(es, ee)], dtype=np.int64).reshape(-1, 2) - vs
+    ekeys = _edge_keys(cone[:, 0], cone[:, 1], nvert)
+    order = np.argsort(ekeys)
+    for name in raw.group_names():
+        label = name if name not in _INTERNAL_LABELS else f"group:{name}"
+        pts = []
+        if name in raw.cell_groups:
+            pts.append(cs + np.asarray(raw.cell_groups[name], dtype=np.int64))
+        if name in raw.edge_groups:
+            seg = np.asarray(raw.edge_groups[name])
+            a, b = vindex[seg[:, 0]], vindex[seg[:, 1]]
+            if (a < 0).any() or (b < 0).any():
+                raise MeshError(f"{raw.source}: group {name}: edges whose ends are not cell vertices")
+            k = _edge_keys(a, b, nvert)
+            pos = np.searchsorted(ekeys, k, sorter=order)
+            pos = order[np.minimum(pos, len(order) - 1)]
+            if not np.array_equal(ekeys[pos], k):
+                raise MeshError(f"{raw.source}: group {name}: edges that are not edges of any cell")
+            pts.append(es + pos)
+        if name in raw.node_groups:
+            p = point_of_node[np.asarray(raw.node_groups[name], dtype=np.int64)]
+            pts.append(p[p >= 0])       # nodes of no cell cannot be DMPlex points
+        dm.createLabel(label)
+        pts = np.unique(np.concatenate(pts)).astype(PETSc.IntType)
+        dm.getLabel(label).setStratumIS(1, PETSc.IS().createGeneral(pts, comm=PETSc.COMM_SELF))
+
+
+def _nodal_field(dm, node_of_point, points):
+    """Section and Vec carrying (x, y, input node index) on vertices and edges and
+    (input cell index) on cells."""
+    pstart, pend = dm.getChart()
+    sec = PETSc.Section().create(comm=dm.comm)
+    sec.setChart(pstart, pend)
+    dofs = _field_dofs(dm)
+    for p in range(pstart, pend):
+        sec.setDof(p, dofs[p - pstart])
+    sec.setUp()
+    vec = PETSc.Vec().createSeq(sec.getStorageSize(), comm=PETSc.COMM_SELF)
+    if pend > pstart:
+        cs, ce = dm.getHeightStratum(0)
+        off = _field_offsets(dofs)
+        a = vec.getArray()
+        a[off[cs:ce]] = np.arange(ce - cs)
+        nodes = np.nonzero(node_of_point >= 0)[0]
+        n = node_of_point[nodes]
+        a[off[nodes]] = points[n, 0]
+        a[off[nodes] + 1] = points[n, 1]
+        a[off[nodes] + 2] = n
+    return sec, vec
+
+
+def _field_dofs(dm):
+    pstart, pend = dm.getChart()
+    dofs = np.full(pend - pstart, 3, dtype=np.int64)
+    cs, ce = dm.getHeightStratum(0)
+    dofs[cs - pstart:ce - pstart] = 1
+    return dofs
+
+
+def _field_offsets(dofs):
+    return np.concatenate([[0], np.cumsum(dofs)[:-1]])
+
+
+def _set_default_partitioner(dm):
+    opts = PETSc.Options()
+    part = dm.getPartitioner()
+    if not opts.hasName("petscpartitioner_type"):
+        part.setType(PETSc.Partitioner.Type.PTSCOTCH)
+    part.setFromOptions()
+
+
+def point_sf_leaves(dm):
+    """Local points owned by another process (leaves of the point SF)."""
+    if dm.comm.size == 1:
+        return np.zeros(0, dtype=np.int64)
+    nroots, leaves, _ = dm.getPointSF().getGraph()
+    if nroots < 0 or leaves is None:
+        return np.zeros(0, dtype=np.int64)
+    return np.asarray(leaves, dtype=np.int64)
+
+
+@dataclass
+class LocalMesh:
+    """What one process holds of the mesh, as arrays for vectorised kernels.
+
+    Local node ``i`` is the DMPlex point ``node_points[i]`` (vertices first, then
+    edges); ``cell_nodes`` uses our node order (vertices counter-clockwise, then
+    mid-edge nodes).
+    """
+
+    dm: object
+    cell_type: str
+    cells: np.ndarray          # (nc,) DMPlex cell points
+    cell_nodes: np.ndarray     # (nc, nn) local node indices
+    cell_ids: np.ndarray       # (nc,) cell index in the input mesh
+    node_points: np.ndarray    # (n,) DMPlex point of each local node
+    node_of_point: np.ndarray  # (chart,) local node of each point, -1 for cells
+    x: np.ndarray              # (n, 2) node coordinates, m
+    node_ids: np.ndarray       # (n,) node index in the input mesh
+    node_owned: np.ndarray     # (n,) bool, this process owns the node's point
+    n_vertices: int            # local nodes [0, n_vertices) are vertices
+    source: str = ""
+
+    @property
+    def comm(self):
+        return self.dm.comm
+
+    @property
+    def element(self):
+        return element(self.cell_type)
+
+    def cell_coordinates(self):
+        """``(nc, nn, 2)`` node coordinates of every local cell."""
+        return self.x[self.cell_nodes]
+
+    # -- groups -------------------------------------------------------------
+    def group_names(self):
+        names = [self.dm.getLabelName(i) for i in range(self.dm.getNumLabels())]
+        return sorted(n.removeprefix("group:") for n in names if n not in _INTERNAL_LABELS)
+
+    def has_group(self, name):
+        return name in self.group_names()
+
+    def _label(self, name):
+        return name if name not in _INTERNAL_LABELS else f"group:{name}"
+
+    def group_points(self, name):
+        """Local DMPlex points of group ``name``."""
+        label = self._label(name)
+        if not self.dm.hasLabel(label):
+            raise KeyError(name)
+        return self._stratum(label)
+
+    def _stratum(self, label):
+        if self.dm.getStratumSize(label, 1) == 0:
+            return np.zeros(0, np.int64)
+        iset = self.dm.getStratumIS(label, 1)
+        return np.asarray(iset.getIndices(), dtype=np.int64) if iset.getSize() else np.zeros(0, np.int64)
+
+    def group_nodes(self, name):
+        """Local nodes of group ``name``: nodes of its cells and edges, and its nodes."""
+        pts = self.group_points(name)
+        cs, ce = self.dm.getHeightStratum(0)
+        is_cell = (pts >= cs) & (pts < ce)
+        nodes = [self.node_of_point[pts[~is_cell]]]
+        if is_cell.any():
+            cell_index = np.searchsorted(self.cells, pts[is_cell])
+            nodes.append(self.cell_nodes[cell_index].ravel())
+        edges = self._edge_points(pts[~is_cell])
+        if len(edges):
+            nodes.append(self.edge_nodes(edges).ravel())
+        return np.unique(np.concatenate(nodes)).astype(np.int64)
+
+    def _edge_points(self, pts):
+        es, ee = self.dm.getDepthStratum(1)
+        return pts[(pts >= es) & (pts < ee)]
+
+    def edge_nodes(self, edges):
+        """``(k, 3)`` local nodes (a, b, mid) of edge points ``edges``."""
+        vs = self.dm.getDepthStratum(0)[0]
+        cone = np.array([self.dm.getCone(e) for e in edges], dtype=np.int64).reshape(-1, 2)
+        return np.c_[self.node_of_point[cone], self.node_of_point[edges]]
+
+    def group_edges(self, name):
+        """Edges of group ``name`` this process integrates on (each edge once overall).
+
+        Returns ``(nodes (k, 3), cell (k,), local_edge (k,))``: the edge's nodes
+        (a, b, mid) oriented like the cell ``cell`` (local cell index) that holds
+        it as its edge ``local_edge``, so that the outward normal of the cell is
+        to the right of a -> b.
+        """
+        edges = self._edge_points(self.group_points(name))
+        owned = self.node_owned[self.node_of_point[edges]]
+        edges = edges[owned]
+        cell_of_edge, local = self._edge_cells(edges)
+        keep = cell_of_edge >= 0
+        edges, cell_of_edge, local = edges[keep], cell_of_edge[keep], local[keep]
+        el = self.element
+        nodes = self.cell_nodes[cell_of_edge[:, None], el.edges[local]]
+        return nodes, cell_of_edge, local
+
+    def _edge_cells(self, edges):
+        """A local cell holding each edge and the edge's index in it (-1 if none)."""
+        cs = self.dm.getHeightStratum(0)[0]
+        cell = np.full(len(edges), -1, dtype=np.int64)
+        local = np.zeros(len(edges), dtype=np.int64)
+        for k, e in enumerate(edges):
+            for c in self.dm.getSupport(e):
+                idx = np.searchsorted(self.cells, c)
+                if idx < len(self.cells) and self.cells[idx] == c:
+                    cone = list(self.dm.getCone(c))
+                    cell[k], local[k] = idx, cone.index(e)
+                    break
+        return cell, local
+
+    def boundary_edges(self):
+        """Nodes ``(k, 3)`` of domain-boundary edges held by local cells (all of them)."""
+        edges = self._edge_points(self._stratum(_BOUNDARY))
+        cell, local = self._edge_cells(edges)
+        keep = cell >= 0
+        return self.cell_nodes[cell[keep][:, None], self.element.edges[local[keep]]]
+
+
+def load(raw, comm=None):
+    """Build the DMPlex of ``raw`` (significant on rank 0), distribute it, return a LocalMesh.
+
+    ``raw`` may be None on ranks other than 0.
+    """
+    comm = comm or PETSc.COMM_WORLD
+    mpi = comm.tompi4py()
+    meta = mpi.bcast((raw.cell_type, raw.source) if mpi.rank == 0 else None, root=0)
+    cell_type, source = meta
+    if mpi.rank != 0:
+        raw = _Stub(cell_type, source)
+    dm, node_of_point = _build_serial(raw, comm)
+    points = raw.points if mpi.rank == 0 else None
+    sec, vec = _nodal_field(dm, node_of_point, points)
+    if comm.size > 1:
+        _set_default_partitioner(dm)
+        sf = dm.distribute()
+        if sf is not None:
+            newsec, newvec = dm.distributeField(sf, sec, vec)
+            sec, vec = newsec, newvec
+    return _local_view(dm, sec, vec, cell_type, source)
+
+
+class _Stub:
+    """Stands for the RawMesh on ranks other than 0 (which hold no cells)."""
+
+    def __init__(self, cell_type, source):
+        self.cell_type, self.source = cell_type, source
+        self.n_vertices_per_cell = element(cell_type).nv
+        self.points = np.zeros((0, 2))
+
+
+def _local_view(dm, sec, vec, cell_type, source):
+    pstart, pend = dm.getChart()
+    cs, ce = dm.getHeightStratum(0)
+    vs, ve = dm.getDepthStratum(0)
+    es, ee = dm.getDepthStratum(1)
+    el = element(cell_type)
+    node_points = np.r_[np.arange(vs, ve), np.arange(es, ee)].astype(np.int64)
+    node_of_point = np.full(pend - pstart, -1, dtype=np.int64)
+    node_of_point[node_points] = np.arange(len(node_points))
+    cells = np.arange(cs, ce, dtype=np.int64)
+    closure = np.array([dm.getTransitiveClosure(c)[0] for c in cells], dtype=np.int64)
+    closure = closure.reshape(len(cells), 1 + el.nv + (el.nn - el.nv))
+    nedge = el.nn - el.nv
+    # closure = [cell, edges 0..k-1, vertices 0..k-1]; our order = vertices, then edges
+    cell_nodes = node_of_point[np.c_[closure[:, 1 + nedge:], closure[:, 1:1 + nedge]]]
+    dofs = _field_dofs(dm)
+    off = _field_offsets(dofs)
+    if sec.getChart()[1] > sec.getChart()[0] and pend > pstart:
+        probe = node_points[-1] if len(node_points) else cs
+        assert sec.getOffset(int(probe)) == off[probe], "unexpected section layout"
+    a = vec.getArray(readonly=True)
+    noff = off[node_points]
+    x = np.c_[a[noff], a[noff + 1]] if len(noff) else np.zeros((0, 2))
+    node_ids = a[noff + 2].astype(np.int64) if len(noff) else np.zeros(0, np.int64)
+    cell_ids = a[off[cells]].astype(np.int64) if len(cells) else np.zeros(0, np.int64)
+    owned = np.ones(pend - pstart, dtype=bool)
+    leaves = point_sf_leaves(dm)
+    owned[leaves] = False
+    return LocalMesh(dm=dm, cell_type=cell_type, cells=cells, cell_nodes=cell_nodes,
+                     cell_ids=cell_ids, node_points=node_points, node_of_point=node_of_point,
+                     x=x, node_ids=node_ids, node_owned=owned[node_points],
+                     n_vertices=ve - vs, source=source)

@@ -1,0 +1,92 @@
+"""The mesh as read from a file or generated, before it goes into DMPlex.
+
+A :class:`RawMesh` holds one cell type (QUAD8 or TRIA6) with our node order:
+vertices counter-clockwise, then the mid-edge nodes, edge ``k`` joining vertex
+``k`` and vertex ``k+1`` (meshio's, MED's and Gmsh's order for these cells).
+Groups keep their names: cell groups, edge groups (SEG3 boundary or interior
+edges) and node groups.  It lives on rank 0 only.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from xfemcontact.errors import MeshError
+
+#: number of vertices and of nodes of each supported cell type
+CELL_TYPES = {"QUAD8": (4, 8), "TRIA6": (3, 6)}
+
+
+@dataclass
+class RawMesh:
+    points: np.ndarray                  # (n_nodes, 2) float, m
+    cell_type: str                      # "QUAD8" or "TRIA6"
+    cells: np.ndarray                   # (n_cells, 8|6) int node indices
+    cell_groups: dict = field(default_factory=dict)   # name -> (k,) cell indices
+    edge_groups: dict = field(default_factory=dict)   # name -> (k, 3) nodes (a, b, mid)
+    node_groups: dict = field(default_factory=dict)   # name -> (k,) node indices
+    source: str = "<generated>"         # file name used in messages
+
+    @property
+    def n_vertices_per_cell(self):
+        return CELL_TYPES[self.cell_type][0]
+
+    @property
+    def vertex_nodes(self):
+        """Sorted indices of the nodes that are cell vertices."""
+        return np.unique(self.cells[:, : self.n_vertices_per_cell])
+
+    def group_names(self):
+        return sorted(set(self.cell_groups) | set(self.edge_groups) | set(self.node_groups))
+
+    def group_nodes(self, name):
+        """All node indices of group ``name`` (nodes of its cells or edges)."""
+        parts = []
+        if name in self.node_groups:
+            parts.append(self.node_groups[name])
+        if name in self.edge_groups:
+            parts.append(self.edge_groups[name].ravel())
+        if name in self.cell_groups:
+            parts.append(self.cells[self.cell_groups[name]].ravel())
+        if not parts:
+            raise KeyError(name)
+        return np.unique(np.concatenate(parts))
+
+    def check(self):
+        """Validate shapes and geometry; re-orient clockwise cells.
+
+        Every cell is made counter-clockwise (a consistently clockwise mesh is
+        legal input).  Cells whose isoparametric Jacobian vanishes or changes
+        sign inside them (folded, degenerate or badly placed mid-nodes) raise
+        :class:`MeshError` naming the first such cell.
+        """
+        if self.cell_type not in CELL_TYPES:
+            raise MeshError(f"{self.source}: unsupported cell type {self.cell_type} "
+                            f"(supported: {', '.join(CELL_TYPES)})")
+        nv, nn = CELL_TYPES[self.cell_type]
+        if self.cells.ndim != 2 or self.cells.shape[1] != nn or len(self.cells) == 0:
+            raise MeshError(f"{self.source}: no {self.cell_type} cells")
+        if self.cells.min() < 0 or self.cells.max() >= len(self.points):
+            raise MeshError(f"{self.source}: cell connectivity refers to missing nodes")
+        if not np.all(np.isfinite(self.points)):
+            raise MeshError(f"{self.source}: node coordinates are not finite")
+        from xfemcontact.fem.elements import element
+
+        ref = element(self.cell_type)
+        x = self.points[self.cells]                                  # (ne, nn, 2)
+        # signed area from the vertices decides the orientation
+        v = x[:, :nv]
+        area = 0.5 * np.sum(v[:, :, 0] * np.roll(v[:, :, 1], -1, axis=1)
+                            - np.roll(v[:, :, 0], -1, axis=1) * v[:, :, 1], axis=1)
+        flip = area < 0
+        if flip.any():
+            self.cells[flip] = self.cells[flip][:, ref.reverse]
+            x = self.points[self.cells]
+        detj = ref.jacobian_dets(x, ref.check_points)                # (ne, nq)
+        size = np.abs(area)[:, None]
+        bad = ~(detj > 1e-10 * size * ref.ref_area_inv)
+        if bad.any():
+            c = int(np.nonzero(bad.any(axis=1))[0][0])
+            raise MeshError(
+                f"{self.source}: cell {c} ({self.cell_type}, nodes {self.cells[c].tolist()}) "
+                f"is degenerate or inverted (Jacobian <= 0 inside it)")
+        return self
