@@ -108,6 +108,9 @@ class DofLayout:
             probe = int(mesh.node_points[-1])
             assert self.section.getOffset(probe) == off[-1], "unexpected PetscSection layout"
         self.local_size = int(dof_of_point.sum())
+        #: index of an extra slot, always zero, that absent dofs of a batch point to;
+        #: local work arrays have ``local_size + 1`` entries
+        self.dummy = self.local_size
         e, m = self.enriched, self.multiplier
         self.u_local = off[:, None] + np.arange(2)
         self.h_local = np.where(e[:, None], off[:, None] + 2 + np.arange(2), -1)
@@ -129,6 +132,10 @@ class DofLayout:
 
     def create_local_vec(self):
         return self.mesh.dm.createLocalVec()
+
+    def local_array(self):
+        """A zero local work array (``local_size + 1`` entries, the last one the dummy)."""
+        return np.zeros(self.local_size + 1)
 
     def counts(self):
         """Number of free dofs of each kind over all processes."""

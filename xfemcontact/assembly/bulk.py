@@ -1,0 +1,130 @@
+"""Bulk elasticity: element stiffness of plain and enriched cells, assembled by batches.
+
+A *batch* is a set of cells sharing a dof layout:
+
+* plain cells: functions ``N_a`` of the cell's nodes, dofs ``(DX, DY)``;
+* enriched cells: functions ``N_a`` then ``psi_a N_a`` (shifted Heaviside,
+  constant on each integration sub-cell), dofs ``(DX, DY)`` then ``(H1X, H1Y)``
+  -- absent Heaviside dofs point to a slot that is always zero.
+
+Element dofs are blocked by component (see :mod:`xfemcontact.fem.elasticity`).
+Work is chunked so that element matrices of at most ``CHUNK`` cells exist at once.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from xfemcontact.fem import elasticity
+from xfemcontact.fem.elements import physical_gradients
+
+CHUNK = 16384
+_AFFINE_TOL = 1e-10
+
+
+@dataclass
+class Batch:
+    """Cells assembled together: their local and global dof indices ``(ne, nd)``."""
+
+    cells: np.ndarray     # (ne,) local cell indices
+    local: np.ndarray     # (ne, nd) indices into a local array (absent -> layout.dummy)
+    glob: np.ndarray      # (ne, nd) global rows/columns (-1: constrained or absent)
+
+    def __len__(self):
+        return len(self.cells)
+
+
+def _blocked(arr2, nodes):
+    """``(ne, 2 nn)`` component-blocked indices from per-node ``arr2 (n, 2)``."""
+    return np.concatenate([arr2[nodes, 0], arr2[nodes, 1]], axis=1)
+
+
+def plain_batch(mesh, layout, cells):
+    nodes = mesh.cell_nodes[cells]
+    loc = _blocked(layout.u_local, nodes)
+    return Batch(cells, loc, _blocked(layout.u_global, nodes))
+
+
+def enriched_batch(mesh, layout, cells):
+    """Batch of cells with functions (N_a, psi_a N_a): dofs (DX.., H1X.., DY.., H1Y..)."""
+    nodes = mesh.cell_nodes[cells]
+    hl = np.where(layout.h_local >= 0, layout.h_local, layout.dummy)
+    loc = np.concatenate([layout.u_local[nodes, 0], hl[nodes, 0],
+                          layout.u_local[nodes, 1], hl[nodes, 1]], axis=1)
+    glob = np.concatenate([layout.u_global[nodes, 0], layout.h_global[nodes, 0],
+                           layout.u_global[nodes, 1], layout.h_global[nodes, 1]], axis=1)
+    return Batch(cells, loc, glob)
+
+
+def affine_mask(el, x):
+    """Cells ``x (ne, nn, 2)`` whose isoparametric map is affine."""
+    e = el.edges
+    mid = 0.5 * (x[:, e[:, 0]] + x[:, e[:, 1]])
+    size = np.abs(x[:, 1] - x[:, 0]).max(axis=1) + np.abs(x[:, 2] - x[:, 0]).max(axis=1)
+    err = np.abs(mid - x[:, e[:, 2]]).max(axis=(1, 2))
+    if el.nv == 4:   # parallelogram: x0 + x2 == x1 + x3
+        err = np.maximum(err, np.abs(x[:, 0] + x[:, 2] - x[:, 1] - x[:, 3]).max(axis=1))
+    return err <= _AFFINE_TOL * size
+
+
+class PlainStiffness:
+    """Stiffness of plain cells of one element type and material."""
+
+    def __init__(self, el, D):
+        self.el = el
+        self.C = elasticity.tensor(D)
+        # exact rules for affine cells; the same rule for curved ones
+        self.q, self.wq = el.quadrature(4 if el.nv == 4 else 2)
+        self.q_gen, self.wq_gen = el.quadrature(4)
+        self.basis = elasticity.affine_basis(elasticity.reference_products(el.dshape(self.q), self.wq), self.C)
+
+    def __call__(self, x):
+        """Element matrices ``(ne, 2 nn, 2 nn)`` of cells ``x (ne, nn, 2)``."""
+        el = self.el
+        K = np.empty((len(x), 2 * el.nn, 2 * el.nn))
+        aff = affine_mask(el, x)
+        if aff.any():
+            xa = x[aff]
+            J = el.jacobians(xa, el.ref_nodes[:1])[:, 0]
+            K[aff] = elasticity.affine_stiffness(J, self.basis)
+        if (~aff).any():
+            xg = x[~aff]
+            J = el.jacobians(xg, self.q_gen)
+            G, det = physical_gradients(el.dshape(self.q_gen)[None], J)
+            K[~aff] = elasticity.stiffness(G, self.wq_gen[None] * det, self.C)
+        return K
+
+
+def enriched_stiffness(G_std, psi, w, C):
+    """Stiffness ``(ne, 4 nn, 4 nn)`` from gradients ``G_std (ne, nq, nn, 2)``,
+    Heaviside weights ``psi (ne, nq, nn)`` and weights ``w (ne, nq)``."""
+    G = np.concatenate([G_std, psi[..., None] * G_std], axis=2)
+    return elasticity.stiffness(G, w, C)
+
+
+def add_matrices(A, batch, K, rows=slice(None)):
+    """``A += K`` for the cells ``rows`` of ``batch`` (ADD_VALUES, negatives ignored)."""
+    from xfemcontact._petsc import PETSc
+
+    g = batch.glob[rows].astype(PETSc.IntType)
+    A.setValuesRCV(g, g, K, addv=PETSc.InsertMode.ADD_VALUES)
+
+
+def add_lift(r_local, batch, K, x_bc, rows=slice(None)):
+    """Accumulate ``K_e @ x_bc,e`` (imposed values) into the local array ``r_local``."""
+    loc = batch.local[rows]
+    xe = x_bc[loc]
+    active = np.any(xe != 0.0, axis=1)
+    if active.any():
+        fe = np.einsum("eij,ej->ei", K[active], xe[active])
+        np.add.at(r_local, loc[active], fe)
+
+
+def assemble_plain(mesh, batch, stiffness, A, r_local, x_bc):
+    """Add the stiffness of a plain batch to ``A`` and its Dirichlet lift to ``r_local``."""
+    x = mesh.x
+    nodes = mesh.cell_nodes
+    for s in range(0, len(batch), CHUNK):
+        rows = slice(s, min(s + CHUNK, len(batch)))
+        K = stiffness(x[nodes[batch.cells[rows]]])
+        add_matrices(A, batch, K, rows)
+        add_lift(r_local, batch, K, x_bc, rows)

@@ -1,0 +1,82 @@
+"""External loads and imposed displacements.
+
+* Imposed displacements (code_aster DDL_IMPO / AFFE_CHAR_MECA_F): values of DX,
+  DY at the nodes of groups, numbers or formulas of (x, y).
+* Surface tractions on edges (FORCE_CONTOUR, N/m per unit length and unit
+  thickness, or PRES_REP pressure in Pa, positive pushing into the body).
+* Body forces (FORCE_INTERNE, N/m^3).
+
+Loads are integrated into local work arrays (``layout.local_array()``) with the
+same component-blocked element dofs as the bulk.  Edges cut by the interface are
+integrated on each side (their Heaviside dofs get the other side's share): the
+caller passes the interface's edge splitter for that.
+"""
+import numpy as np
+
+from xfemcontact.fem.elements import Seg3
+from xfemcontact.fem.quadrature import gauss_segment
+
+
+def imposed_values(mesh, case_dirichlet, group_nodes):
+    """Imposed components at local nodes.
+
+    Returns ``(fixed (n, 2) bool, values (n, 2))`` for DX, DY; later conditions
+    override earlier ones on the same node and component.
+    """
+    n = len(mesh.x)
+    fixed = np.zeros((n, 2), dtype=bool)
+    values = np.zeros((n, 2))
+    for bc in case_dirichlet:
+        nodes = np.unique(np.concatenate([group_nodes(g) for g in bc.groups]))
+        for c, comp in enumerate(("DX", "DY")):
+            if comp in bc.components:
+                fixed[nodes, c] = True
+                values[nodes, c] = bc.components[comp](x=mesh.x[nodes, 0], y=mesh.x[nodes, 1])
+    return fixed, values
+
+
+def edge_geometry(xe, s):
+    """Points ``(k, nq, 2)``, length elements ``(k, nq)`` and outward unit normals
+    ``(k, nq, 2)`` of SEG3 edges ``xe (k, 3, 2)`` oriented with their cell
+    (counter-clockwise), at reference abscissae ``s (nq,)``."""
+    N, dN = Seg3.shape(s), Seg3.dshape(s)
+    pts = np.einsum("qa,kai->kqi", N, xe)
+    tan = np.einsum("qa,kai->kqi", dN, xe)
+    ds = np.linalg.norm(tan, axis=-1)
+    normal = np.stack([tan[..., 1], -tan[..., 0]], axis=-1) / ds[..., None]
+    return pts, ds, normal
+
+
+def traction_vectors(spec, pts, normal):
+    """Traction ``(k, nq, 2)`` in N/m of a traction spec at points ``pts``."""
+    x, y = pts[..., 0], pts[..., 1]
+    if spec.pressure is not None:
+        return -spec.pressure(x=x, y=y)[..., None] * normal
+    return np.stack([spec.force["FX"](x=x, y=y), spec.force["FY"](x=x, y=y)], axis=-1)
+
+
+def edge_forces(xe, spec, s_range=(-1.0, 1.0), nq=4):
+    """Nodal forces ``(k, 2, 3)`` (component, edge node) of a traction on edges
+    ``xe (k, 3, 2)``, integrated over the reference part ``s_range`` of each edge
+    (arrays allowed, for edges split by the interface)."""
+    q, wq = gauss_segment(nq)
+    a, b = (np.broadcast_to(np.asarray(v, float), (len(xe),)) for v in s_range)
+    half = 0.5 * (b - a)
+    s = 0.5 * (a + b)[:, None] + half[:, None] * q[None, :, 0]          # (k, nq)
+    N = Seg3.shape(s)                                                    # (k, nq, 3)
+    dN = Seg3.dshape(s)
+    pts = np.einsum("kqa,kai->kqi", N, xe)
+    tan = np.einsum("kqa,kai->kqi", dN, xe)
+    ds = np.linalg.norm(tan, axis=-1)
+    normal = np.stack([tan[..., 1], -tan[..., 0]], axis=-1) / ds[..., None]
+    t = traction_vectors(spec, pts, normal)
+    w = wq[None] * half[:, None] * ds
+    return np.einsum("kq,kqi,kqa->kia", w, t, N)
+
+
+def body_forces(G_values, w, pts, body):
+    """Nodal forces ``(ne, 2, nf)`` of body force ``body`` at points ``pts (ne, nq, 2)``
+    for functions with values ``G_values (ne, nq, nf)`` and weights ``w (ne, nq)``."""
+    x, y = pts[..., 0], pts[..., 1]
+    b = np.stack([body.FX(x=x, y=y), body.FY(x=x, y=y)], axis=-1)
+    return np.einsum("eq,eqi,eqf->eif", w, b, G_values)
