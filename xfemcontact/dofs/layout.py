@@ -122,6 +122,12 @@ class DofLayout:
             return np.where(g >= 0, g, -1)
 
         self.u_global, self.h_global, self.lag_global = glob(self.u_local), glob(self.h_local), glob(self.lag_local)
+        constrained = np.zeros(self.local_size, dtype=bool)
+        constrained[self.u_local[self.fixed[:, :2]]] = True
+        hfix = self.h_local[self.fixed[:, 2:]]
+        constrained[hfix[hfix >= 0]] = True
+        #: local indices of the free (unconstrained) dofs
+        self.free_local = np.nonzero(~constrained)[0]
         self.owned_size = self.global_section.getConstrainedStorageSize()
         self.global_size = self.mesh.comm.tompi4py().allreduce(self.owned_size)
         self.ownership_start = self.mesh.comm.tompi4py().exscan(self.owned_size) or 0

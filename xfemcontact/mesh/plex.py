@@ -24,6 +24,7 @@ from xfemcontact.fem.elements import element
 #: labels PETSc creates itself; never confused with mesh groups
 _INTERNAL_LABELS = {"depth", "celltype", "boundary"}
 _BOUNDARY = "boundary"
+ENTITY, NODE = 1, 2      # label values: cells/edges of a group, nodes of a node group
 
 
 def _edge_keys(a, b, n):
@@ -90,9 +91,9 @@ def _label_groups(dm, raw, vnodes, vindex, node_of_point):
     order = np.argsort(ekeys)
     for name in raw.group_names():
         label = name if name not in _INTERNAL_LABELS else f"group:{name}"
-        pts = []
+        entities = []
         if name in raw.cell_groups:
-            pts.append(cs + np.asarray(raw.cell_groups[name], dtype=np.int64))
+            entities.append(cs + np.asarray(raw.cell_groups[name], dtype=np.int64))
         if name in raw.edge_groups:
             seg = np.asarray(raw.edge_groups[name])
             a, b = vindex[seg[:, 0]], vindex[seg[:, 1]]
@@ -103,13 +104,19 @@ def _label_groups(dm, raw, vnodes, vindex, node_of_point):
             pos = order[np.minimum(pos, len(order) - 1)]
             if not np.array_equal(ekeys[pos], k):
                 raise MeshError(f"{raw.source}: group {name}: edges that are not edges of any cell")
-            pts.append(es + pos)
+            entities.append(es + pos)
+        dm.createLabel(label)
+        lab = dm.getLabel(label)
+        if entities:
+            _set_stratum(lab, ENTITY, np.concatenate(entities))
         if name in raw.node_groups:
             p = point_of_node[np.asarray(raw.node_groups[name], dtype=np.int64)]
-            pts.append(p[p >= 0])       # nodes of no cell cannot be DMPlex points
-        dm.createLabel(label)
-        pts = np.unique(np.concatenate(pts)).astype(PETSc.IntType)
-        dm.getLabel(label).setStratumIS(1, PETSc.IS().createGeneral(pts, comm=PETSc.COMM_SELF))
+            _set_stratum(lab, NODE, p[p >= 0])       # nodes of no cell cannot be DMPlex points
+
+
+def _set_stratum(label, value, points):
+    pts = np.unique(points).astype(PETSc.IntType)
+    label.setStratumIS(value, PETSc.IS().createGeneral(pts, comm=PETSc.COMM_SELF))
 
 
 def _nodal_field(dm, node_of_point, points):
@@ -211,17 +218,18 @@ class LocalMesh:
     def _label(self, name):
         return name if name not in _INTERNAL_LABELS else f"group:{name}"
 
-    def group_points(self, name):
-        """Local DMPlex points of group ``name``."""
+    def group_points(self, name, value=ENTITY):
+        """Local DMPlex points of group ``name``: its cells and edges (``ENTITY``)
+        or the points carrying its nodes (``NODE``)."""
         label = self._label(name)
         if not self.dm.hasLabel(label):
             raise KeyError(name)
-        return self._stratum(label)
+        return self._stratum(label, value)
 
-    def _stratum(self, label):
-        if self.dm.getStratumSize(label, 1) == 0:
+    def _stratum(self, label, value=ENTITY):
+        if self.dm.getStratumSize(label, value) == 0:
             return np.zeros(0, np.int64)
-        iset = self.dm.getStratumIS(label, 1)
+        iset = self.dm.getStratumIS(label, value)
         return np.asarray(iset.getIndices(), dtype=np.int64) if iset.getSize() else np.zeros(0, np.int64)
 
     def group_nodes(self, name):
@@ -229,7 +237,7 @@ class LocalMesh:
         pts = self.group_points(name)
         cs, ce = self.dm.getHeightStratum(0)
         is_cell = (pts >= cs) & (pts < ce)
-        nodes = [self.node_of_point[pts[~is_cell]]]
+        nodes = [self.node_of_point[self.group_points(name, NODE)]]
         if is_cell.any():
             cell_index = np.searchsorted(self.cells, pts[is_cell])
             nodes.append(self.cell_nodes[cell_index].ravel())
@@ -237,6 +245,10 @@ class LocalMesh:
         if len(edges):
             nodes.append(self.edge_nodes(edges).ravel())
         return np.unique(np.concatenate(nodes)).astype(np.int64)
+
+    def group_edge_nodes(self, name):
+        """``(k, 3)`` nodes of every local edge of group ``name`` (shared ones too)."""
+        return self.edge_nodes(self._edge_points(self.group_points(name)))
 
     def _edge_points(self, pts):
         es, ee = self.dm.getDepthStratum(1)
@@ -352,3 +364,39 @@ def _local_view(dm, sec, vec, cell_type, source):
                      cell_ids=cell_ids, node_points=node_points, node_of_point=node_of_point,
                      x=x, node_ids=node_ids, node_owned=owned[node_points],
                      n_vertices=ve - vs, source=source)
+
+
+def reduce_nodes(mesh, values, op="sum"):
+    """Combine per-node ``values (n, ...)`` over every process holding the node.
+
+    ``op``: "sum", "max" or "min".  Each process gets the combined value at its
+    nodes (owners reduce the copies of the other processes, then broadcast).
+    """
+    values = np.ascontiguousarray(values)
+    if mesh.comm.size == 1:
+        return values.copy()
+    from mpi4py import MPI
+
+    mpi_op = {"sum": MPI.SUM, "max": MPI.MAX, "min": MPI.MIN}[op]
+    unit = MPI._typedict[values.dtype.char]
+    nchart = mesh.dm.getChart()[1]
+    shape = (nchart,) + values.shape[1:]
+    data = np.zeros(shape, dtype=values.dtype)
+    data[mesh.node_points] = values
+    leaf = data.copy()
+    root = data.copy()
+    ghosts = mesh.node_points[~mesh.node_owned]
+    if op == "sum":
+        root[ghosts] = 0           # a ghost's own value reaches its owner through the SF
+    sf = mesh.dm.getPointSF()
+    flat = int(np.prod(values.shape[1:], dtype=int))
+    if flat > 1:
+        unit = unit.Create_contiguous(flat).Commit()
+    sf.reduceBegin(unit, leaf, root, mpi_op)
+    sf.reduceEnd(unit, leaf, root, mpi_op)
+    out = root.copy()
+    sf.bcastBegin(unit, root, out, MPI.REPLACE)
+    sf.bcastEnd(unit, root, out, MPI.REPLACE)
+    if flat > 1:
+        unit.Free()
+    return out[mesh.node_points]

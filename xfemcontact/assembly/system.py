@@ -1,0 +1,137 @@
+"""The bulk system of one process: stiffness K and load vector.
+
+``K`` holds the bulk stiffness (plain cells, and enriched cells integrated on
+their sub-cells) with the sparsity of every coupling, interface ones included,
+so the Jacobian built on it keeps one pattern for the whole run.  The load
+vector is ``f0 = K_fc u_c - F_ext`` on the free dofs (lift of the imposed
+displacements minus tractions and body forces): the bulk residual is
+``K x + f0``.
+"""
+import numpy as np
+
+from xfemcontact._petsc import PETSc
+from xfemcontact.assembly import bulk, loads
+from xfemcontact.fem import elasticity
+from xfemcontact.fem.elements import Seg3
+from xfemcontact.xfem import geometry as xgeo
+from xfemcontact.xfem.levelset import edge_roots
+
+
+def bc_array(layout, fixed, values):
+    """Local work array with the imposed values (DX, DY) at constrained dofs."""
+    x = layout.local_array()
+    for c in range(2):
+        m = fixed[:, c]
+        x[layout.u_local[m, c]] = values[m, c]
+    return x
+
+
+def heaviside_weights(mesh, geo, pts):
+    """psi_a = H(x_q) - H(x_a) of every node of the cells of ``pts`` (0 if not enriched)."""
+    nodes = mesh.cell_nodes[pts.cells]
+    psi = pts.side[:, :, None] - geo.node_side[nodes][:, None, :]
+    return psi * geo.enriched[nodes][:, None, :]
+
+
+def assemble_bulk(mesh, geo, layout, D, A, r_local, x_bc):
+    """Bulk stiffness into ``A`` and Dirichlet lift into ``r_local``."""
+    el = mesh.element
+    plain = geo.plain_cells(mesh) if geo is not None else np.arange(len(mesh.cells))
+    batch = bulk.plain_batch(mesh, layout, plain)
+    bulk.assemble_plain(mesh, batch, bulk.PlainStiffness(el, D), A, r_local, x_bc)
+    if geo is None:
+        return
+    C = elasticity.tensor(D)
+    for pts in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
+        batch = bulk.enriched_batch(mesh, layout, pts.cells)
+        K = bulk.enriched_stiffness(pts.dNdx, heaviside_weights(mesh, geo, pts), pts.w, C)
+        bulk.add_matrices(A, batch, K)
+        bulk.add_lift(r_local, batch, K, x_bc)
+
+
+def add_body_forces(mesh, geo, layout, body, f_local):
+    """Body forces (N/m^3) into the local array ``f_local``."""
+    el = mesh.element
+    plain = geo.plain_cells(mesh) if geo is not None else np.arange(len(mesh.cells))
+    from xfemcontact.xfem import integration
+
+    for s in range(0, len(plain), bulk.CHUNK):
+        cells = plain[s:s + bulk.CHUNK]
+        pts = integration.cell_points(el, mesh.x[mesh.cell_nodes[cells]], cells, np.ones(len(cells)))
+        fe = loads.body_forces(pts.N, pts.w, pts.x, body)
+        np.add.at(f_local, bulk.plain_batch(mesh, layout, cells).local, fe.reshape(len(cells), -1))
+    if geo is None:
+        return
+    for pts in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
+        psi = heaviside_weights(mesh, geo, pts)
+        vals = np.concatenate([pts.N, psi * pts.N], axis=2)
+        fe = loads.body_forces(vals, pts.w, pts.x, body)
+        np.add.at(f_local, bulk.enriched_batch(mesh, layout, pts.cells).local, fe.reshape(len(pts.cells), -1))
+
+
+def add_tractions(mesh, geo, layout, traction, f_local):
+    """Surface tractions of the case into ``f_local``, edges split by the interface."""
+    for spec in traction:
+        for g in spec.groups:
+            nodes, _, _ = mesh.group_edges(g)
+            if len(nodes) == 0:
+                continue
+            xe = mesh.x[nodes]
+            fe = _edge_forces_by_side(mesh, geo, nodes, xe, spec)        # (k, 2, 6)
+            np.add.at(f_local, _edge_dofs(layout, nodes), fe.reshape(len(nodes), -1))
+
+
+def _edge_dofs(layout, nodes):
+    hl = np.where(layout.h_local >= 0, layout.h_local, layout.dummy)
+    return np.concatenate([layout.u_local[nodes, 0], hl[nodes, 0],
+                           layout.u_local[nodes, 1], hl[nodes, 1]], axis=1)
+
+
+def _edge_forces_by_side(mesh, geo, nodes, xe, spec):
+    """Forces on functions (N_a, psi_a N_a) of edge nodes: ``(k, 2, 6)``."""
+    k = len(nodes)
+    out = np.zeros((k, 2, 6))
+    if geo is None:
+        out[:, :, :3] = loads.edge_forces(xe, spec)
+        return out
+    phi = geo.phi[nodes]
+    roots = edge_roots(phi[:, 0], phi[:, 1], phi[:, 2])
+    s_cut = np.where(phi[:, 0] * phi[:, 1] < 0, roots[:, 0], np.nan)
+    pieces = [(-1.0, np.where(np.isnan(s_cut), 1.0, s_cut)), (np.where(np.isnan(s_cut), 1.0, s_cut), 1.0)]
+    for a, b in pieces:
+        a = np.broadcast_to(a, (k,))
+        b = np.broadcast_to(b, (k,))
+        live = b > a
+        if not live.any():
+            continue
+        mid = Seg3.shape(0.5 * (a + b)[live])                          # side of the piece
+        phim = np.einsum("ka,ka->k", mid, phi[live])
+        H = np.where(phim >= 0, 1.0, -1.0)
+        H = np.where(phim == 0, np.where(phi[live].max(axis=1) > 0, 1.0, -1.0), H)
+        f = loads.edge_forces(xe[live], spec, (a[live], b[live]))      # (kl, 2, 3)
+        psi = (H[:, None] - geo.node_side[nodes[live]]) * geo.enriched[nodes[live]]
+        out[live, :, :3] += f
+        out[live, :, 3:] += f * psi[:, None, :]
+    return out
+
+
+def local_to_global(layout, arr):
+    """Global Vec summing the local work array ``arr`` over processes (dummy dropped)."""
+    dm = layout.mesh.dm
+    lv = dm.createLocalVec()
+    lv.setArray(arr[:-1])
+    g = dm.createGlobalVec()
+    g.set(0.0)
+    dm.localToGlobal(lv, g, addv=PETSc.InsertMode.ADD_VALUES)
+    return g
+
+
+def global_to_local(layout, g, x_bc):
+    """Local work array of global vector ``g`` with imposed values from ``x_bc``."""
+    dm = layout.mesh.dm
+    lv = dm.createLocalVec()
+    dm.globalToLocal(g, lv)
+    out = x_bc.copy()
+    free = layout.free_local
+    out[free] = lv.getArray(readonly=True)[free]
+    return out

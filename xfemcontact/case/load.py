@@ -1,0 +1,541 @@
+"""Read a TOML case file, check all of it against :data:`schema.CASE`, return a :class:`Case`.
+
+Nothing heavy happens here: the mesh file is only checked to exist, formulas
+are compiled (not evaluated on a mesh).  Every refusal is one line,
+``"{file}: {dotted.key[i]}: {what is wrong} ({what would be right})"``:
+a :class:`CaseError`, or the :class:`FormulaError` of a formula or condition
+(same shape).
+"""
+import difflib
+import json
+import math
+import os
+import re
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from xfemcontact.case import schema
+from xfemcontact.case.formula import (Condition, Formula, FormulaError, compile_condition,
+                                      compile_formula)
+from xfemcontact.errors import CaseError, where
+
+__all__ = ["load_case", "Case", "MeshSpec", "Material", "Dirichlet", "Traction", "BodyForce",
+           "Interface", "Contact", "Newton", "TestSpec", "Output"]
+
+
+# --- what a case is ------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class MeshSpec:
+    file: Path | None                 # resolved; None for a rectangle
+    rectangle: dict | None            # keyword arguments of mesh.generate.rectangle
+    refine: int
+    key_file: str = "mesh.file"
+
+
+@dataclass(frozen=True)
+class Material:
+    E: float
+    nu: float
+    model: str                        # "C_PLAN" | "D_PLAN"
+
+
+@dataclass(frozen=True)
+class Dirichlet:
+    groups: tuple
+    components: dict                  # {"DX": Formula, "DY": Formula}, those given only
+    key: str                          # "dirichlet[0]"
+
+
+@dataclass(frozen=True)
+class Traction:
+    groups: tuple
+    force: dict | None                # {"FX": Formula, "FY": Formula} (missing one = 0)
+    pressure: Formula | None
+    key: str                          # "traction[0]"
+
+
+@dataclass(frozen=True)
+class BodyForce:
+    FX: Formula
+    FY: Formula
+
+
+@dataclass(frozen=True)
+class Interface:
+    type: str                         # "INTERFACE"
+    level_set: Formula | None
+    level_set_field: str | None
+    law: str                          # "contact" | "bonded" | "free"
+
+
+@dataclass(frozen=True)
+class Contact:
+    friction: bool                    # frottement == "COULOMB" and coulomb > 0
+    coulomb: float
+    coef_cont: float
+    coef_frot: float
+    contact_init: bool | str          # True, False or "interpenetrated"
+    seuil_init: float | None
+    iter_cont_maxi: int
+    iter_frot_maxi: int
+    resi_frot: float
+    ordre_int: int
+
+
+@dataclass(frozen=True)
+class Newton:
+    resi_glob_rela: float
+    iter_glob_maxi: int
+
+
+@dataclass(frozen=True)
+class TestSpec:
+    __test__ = False                  # not a pytest test class
+
+    name: str
+    field: str
+    kind: str                         # "interface" | "node" | "cell"
+    type: str                         # MIN | MAX | VALUE | SOMM_ABS | MAX_ERROR
+    where: Condition | None
+    point: tuple | None
+    reference: float                  # 0 for MAX_ERROR
+    tolerance: float
+    criterion: str                    # "ABSOLU" | "RELATIF"
+    key: str                          # "test[0]"
+
+
+@dataclass(frozen=True)
+class Output:
+    formats: tuple
+    plots: bool
+
+
+@dataclass(frozen=True)
+class Case:
+    path: Path                        # resolved path of the case file
+    source: str                       # the path as the user gave it, for messages
+    name: str                         # file stem
+    title: str
+    params: dict
+    mesh: MeshSpec
+    material: Material
+    dirichlet: tuple
+    traction: tuple
+    body_force: BodyForce | None
+    interface: Interface | None
+    contact: Contact
+    newton: Newton
+    reference: dict                   # field -> Formula
+    tests: tuple
+    output: Output
+
+    def check_groups(self, available):
+        """Raise :class:`CaseError` for the first load group not in ``available``."""
+        available = sorted(set(available))
+        mesh = self.mesh.file.name if self.mesh.file is not None else "rectangle"
+        for load in (*self.dirichlet, *self.traction):
+            for group in load.groups:
+                if group not in available:
+                    close = _closest(group, available, cutoff=0.6)
+                    hint = f"did you mean '{close}'? " if close else ""
+                    listed = ", ".join(available[:30]) + (", ..." if len(available) > 30 else "")
+                    raise CaseError(f"{self.source}: {load.key}.group: no group "
+                                    f"'{_printable(group)}' in {mesh} "
+                                    f"({hint}groups: {listed or 'none'})")
+
+
+# --- loading -------------------------------------------------------------------------------
+
+def load_case(path):
+    """Read, check and compile the case file ``path``; :class:`CaseError` if anything is wrong."""
+    source = _printable(os.fsdecode(path))
+    path = Path(path)
+    raw = _read_toml(path, source)
+    walker = _Walker(source, path.parent)
+    # parameters first: every formula of the case may use them
+    walker.params = walker.value(schema.CASE.keys["parameters"], raw.get("parameters", {}),
+                                 "parameters", {})
+    values = walker.table(schema.CASE, raw, "")
+    case = _build(values, path, source, walker.params)
+    _check_case(case, walker.fail)
+    return case
+
+
+def _read_toml(path, source):
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise CaseError(f"{source}: case file not found (give the path of a TOML case file)") \
+            from None
+    except IsADirectoryError:
+        raise CaseError(f"{source}: is a folder, not a case file (give a TOML case file)") \
+            from None
+    except (OSError, ValueError) as exc:
+        reason = _printable(getattr(exc, "strerror", None) or str(exc))
+        raise CaseError(f"{source}: cannot read the case file: {reason}") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise CaseError(f"{source}: line {line}: not UTF-8 text (save the case file as "
+                        f"UTF-8)") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        message = str(exc)
+        found = re.search(r"\(at line (\d+), column (\d+)\)$", message)
+        if found:
+            line = found.group(1)
+            message = f"{message[:found.start()].rstrip()} (column {found.group(2)})"
+        else:
+            line = text.count("\n") + 1
+            message = re.sub(r"\s*\(at end of document\)$", " (at the end of the file)",
+                             message)
+        raise CaseError(f"{source}: line {line}: {_printable(message)}") from None
+    except RecursionError:
+        raise CaseError(f"{source}: arrays or tables nested too deeply") from None
+
+
+class _Walker:
+    """Checks raw TOML values against the schema and converts them."""
+
+    def __init__(self, source, folder):
+        self.source, self.folder, self.params = source, folder, {}
+        self.convert = {
+            "float": self._float, "int": self._int, "str": self._str,
+            "choice": self._choice, "choices": self._choices, "formula": self._formula,
+            "condition": self._condition, "names": self._names, "point": self._point,
+            "interval": self._interval, "file": self._file, "table": self._table,
+            "tables": self._tables}
+
+    def fail(self, at, message):
+        raise CaseError(f"{where(self.source, at)}: {message}")
+
+    def table(self, spec, raw, at):
+        """The checked values of table ``raw``: every key of ``spec``, in order."""
+        if not isinstance(raw, dict):
+            self.fail(at, f"expected a table, got {_show(raw)}")
+        for name in raw:
+            if name not in spec.keys:
+                if spec.extra is None:
+                    self.fail(_join(at, name), f"unknown key {_suggest(name, spec.keys)}")
+                self._check_name(name, at)
+        presence = [rule for rule in spec.rules if not isinstance(rule, schema.When)]
+        for rule in presence:              # which keys are given, before their values
+            self._rule(rule, raw, {}, at)
+        out = {}
+        for name, key in spec.keys.items():
+            here = _join(at, name)
+            if name in raw:
+                out[name] = self.value(key, raw[name], here, out)
+            elif key.required:
+                if key.type == "table":
+                    self.fail(here, f"missing required table [{here}] ({key.doc})")
+                self.fail(here, f"missing required key ({key.doc})")
+            else:
+                out[name] = None if key.default is None else self.value(key, key.default,
+                                                                        here, out)
+        for name in raw:
+            if name not in spec.keys:
+                out[name] = self.value(spec.extra, raw[name], _join(at, name), out)
+        for rule in spec.rules:
+            if isinstance(rule, schema.When):
+                self._rule(rule, raw, out, at)
+        return out
+
+    def value(self, key, raw, at, siblings):
+        return self.convert[key.type](key, raw, at, siblings)
+
+    def _check_name(self, name, at):
+        if not re.fullmatch(schema.PARAMETER_NAME, name):
+            self.fail(_join(at, name), "not a valid name (ASCII letters, digits and '_', "
+                                       "starting with a letter)")
+        if name in schema.RESERVED_NAMES:
+            self.fail(_join(at, name), f"'{name}' is {schema.RESERVED_NAMES[name]} "
+                                       f"(choose another name)")
+
+    # rules
+
+    def _rule(self, rule, raw, out, at):
+        if isinstance(rule, schema.ExactlyOne):
+            if sum(name in raw for name in rule.keys) != 1:
+                self.fail(at, f"give exactly one of {_either(rule.keys)}")
+        elif isinstance(rule, schema.AtLeastOne):
+            if not any(name in raw for name in rule.keys):
+                self.fail(at, f"give at least one of {_either(rule.keys)}")
+        elif isinstance(rule, schema.NotBoth):
+            if any(n in raw for n in rule.first) and any(n in raw for n in rule.second):
+                self.fail(at, f"give either {_group(rule.first)} or {_group(rule.second)}, "
+                              f"not both")
+        elif isinstance(rule, schema.When):
+            if out.get(rule.key) not in rule.values:
+                return
+            condition = f"{rule.key} = {_show(out[rule.key])}"
+            hint = f" ({rule.hint})" if rule.hint else ""
+            for name in rule.require:
+                if name not in raw:
+                    self.fail(_join(at, name), f"required when {condition}{hint}")
+            for name in rule.forbid:
+                if name in raw:
+                    self.fail(_join(at, name), f"not allowed when {condition}{hint}")
+        else:  # pragma: no cover - a schema mistake
+            raise TypeError(f"unknown rule {rule!r}")
+
+    # value types
+
+    def _number(self, raw, at, what="a number"):
+        if isinstance(raw, bool) or not isinstance(raw, (int, float)):
+            self.fail(at, f"expected {what}, got {_show(raw)}")
+        if not math.isfinite(raw):
+            self.fail(at, f"expected a finite number, got {_show(raw)}")
+        return raw
+
+    def _bounded(self, key, raw, at):
+        value = raw
+        if ((key.gt is not None and not value > key.gt) or (key.ge is not None and value < key.ge)
+                or (key.lt is not None and not value < key.lt)
+                or (key.le is not None and value > key.le)):
+            self.fail(at, f"must be {schema.bounds(key)}, got {_show(raw)}")
+        return value
+
+    def _float(self, key, raw, at, siblings):
+        return float(self._bounded(key, self._number(raw, at), at))
+
+    def _int(self, key, raw, at, siblings):
+        if isinstance(raw, bool) or not isinstance(raw, int):
+            self.fail(at, f"expected an integer, got {_show(raw)}")
+        return self._bounded(key, raw, at)
+
+    def _str(self, key, raw, at, siblings):
+        if not isinstance(raw, str):
+            self.fail(at, f"expected a string, got {_show(raw)}")
+        return raw
+
+    def _choice(self, key, raw, at, siblings):
+        listed = ", ".join(key.choices)
+        if key.booleans and isinstance(raw, bool):
+            raw = "OUI" if raw else "NON"
+        if not isinstance(raw, str):
+            what = f"true, false or one of {listed}" if key.booleans else \
+                f"a string (one of {listed})"
+            self.fail(at, f"expected {what}, got {_show(raw)}")
+        folded = {choice.casefold(): choice for choice in key.choices}
+        canonical = folded.get(raw.casefold())
+        if canonical is None:
+            refused = {k.casefold(): v for k, v in key.refused.items()}.get(raw.casefold())
+            if refused:
+                self.fail(at, refused)
+            close = _closest(raw.casefold(), list(folded), cutoff=0.6)
+            hint = f"did you mean {_show(folded[close])}? " if close else ""
+            self.fail(at, f"unknown value {_show(raw)} ({hint}expected one of {listed})")
+        return canonical if key.values is None else key.values[canonical]
+
+    def _choices(self, key, raw, at, siblings):
+        if not isinstance(raw, list):
+            self.fail(at, f"expected an array of strings (among {', '.join(key.choices)}), "
+                          f"got {_show(raw)}")
+        items = [self._choice(key, item, f"{at}[{i}]", siblings) for i, item in enumerate(raw)]
+        return tuple(dict.fromkeys(items))
+
+    def _formula(self, key, raw, at, siblings):
+        return _single_line(compile_formula, raw, self.params, source=self.source, key=at)
+
+    def _condition(self, key, raw, at, siblings):
+        variables = key.variables[siblings[key.context]]
+        return _single_line(compile_condition, raw, self.params, variables=variables,
+                            source=self.source, key=at)
+
+    def _names(self, key, raw, at, siblings):
+        items = [raw] if isinstance(raw, str) else raw
+        if not isinstance(items, list) or not items:
+            self.fail(at, f"expected a group name or a non-empty array of names, "
+                          f"got {_show(raw)}")
+        for i, item in enumerate(items):
+            here = at if isinstance(raw, str) else f"{at}[{i}]"
+            if not isinstance(item, str) or not item.strip():
+                self.fail(here, f"expected a group name, got {_show(item)}")
+        return tuple(dict.fromkeys(items))
+
+    def _pair(self, raw, at, what):
+        if not isinstance(raw, list) or len(raw) != 2:
+            self.fail(at, f"expected an array of two numbers {what}, got {_show(raw)}")
+        return tuple(float(self._number(item, f"{at}[{i}]")) for i, item in enumerate(raw))
+
+    def _point(self, key, raw, at, siblings):
+        return self._pair(raw, at, "[x, y]")
+
+    def _interval(self, key, raw, at, siblings):
+        low, high = self._pair(raw, at, "[min, max]")
+        if not low < high:
+            self.fail(at, f"must be increasing [min, max], got {_show(raw)}")
+        return low, high
+
+    def _file(self, key, raw, at, siblings):
+        name = self._str(key, raw, at, siblings)
+        try:
+            path = (self.folder / name).resolve()
+            found = path.is_file()
+        except (OSError, ValueError, RuntimeError):
+            path, found = self.folder / name, False
+        if not found:
+            self.fail(at, f"mesh file not found: {_printable(str(path))} (paths are relative "
+                          f"to the case file's folder)")
+        return path
+
+    def _table(self, key, raw, at, siblings):
+        return self.table(key.table, raw, at)
+
+    def _tables(self, key, raw, at, siblings):
+        if not isinstance(raw, list):
+            self.fail(at, f"expected an array of tables ([[{at}]]), got {_show(raw)}")
+        return tuple(self.table(key.table, item, f"{at}[{i}]") for i, item in enumerate(raw))
+
+
+def _single_line(compile_, raw, params, **kwargs):
+    """Compile; a FormulaError goes through, its message made printable on one line."""
+    try:
+        return compile_(raw, params, **kwargs)
+    except FormulaError as exc:
+        message = str(exc)
+        if _printable(message) != message:
+            raise FormulaError(_printable(message)) from None
+        raise
+
+
+# --- building the case ---------------------------------------------------------------------
+
+def _build(v, path, source, params):
+    mesh, contact, test_specs = v["mesh"], v["contact"], []
+    zero = {name: compile_formula(0.0, params, source=source, key=name)
+            for name in ("FX", "FY")}
+    for i, t in enumerate(v["test"]):
+        test_specs.append(TestSpec(
+            name=t["name"] if t["name"] is not None else f"{t['type']} {t['field']}",
+            field=t["field"], kind=schema.FIELD_KIND[t["field"]], type=t["type"],
+            where=t["where"], point=t["point"],
+            reference=t["reference"] if t["reference"] is not None else 0.0,
+            tolerance=t["tolerance"], criterion=t["criterion"], key=f"test[{i}]"))
+    tractions = []
+    for i, t in enumerate(v["traction"]):
+        force = None
+        if t["PRES"] is None:
+            force = {name: t[name] if t[name] is not None else zero[name]
+                     for name in ("FX", "FY")}
+        tractions.append(Traction(groups=t["group"], force=force, pressure=t["PRES"],
+                                  key=f"traction[{i}]"))
+    body = v["body_force"]
+    interface = v["interface"]
+    return Case(
+        path=path.resolve(), source=source, name=path.stem,
+        title=v["title"] if v["title"] is not None else path.stem,
+        params=dict(params),
+        mesh=MeshSpec(file=mesh["file"], rectangle=mesh["rectangle"], refine=mesh["refine"]),
+        material=Material(**v["material"]),
+        dirichlet=tuple(
+            Dirichlet(groups=d["group"], key=f"dirichlet[{i}]",
+                      components={c: d[c] for c in ("DX", "DY") if d[c] is not None})
+            for i, d in enumerate(v["dirichlet"])),
+        traction=tuple(tractions),
+        body_force=None if body is None else BodyForce(
+            **{name: body[name] if body[name] is not None else zero[name]
+               for name in ("FX", "FY")}),
+        interface=None if interface is None else Interface(**interface),
+        contact=Contact(
+            friction=contact["frottement"] == "COULOMB" and contact["coulomb"] > 0,
+            **{name: value for name, value in contact.items() if name != "frottement"}),
+        newton=Newton(**v["newton"]),
+        reference={name: f for name, f in v["reference"].items() if f is not None},
+        tests=tuple(test_specs),
+        output=Output(**v["output"]))
+
+
+def _check_case(case, fail):
+    """The checks that involve several tables."""
+    if (case.interface is not None and case.interface.level_set_field is not None
+            and case.mesh.file is None):
+        fail("interface.level_set_field", "needs a mesh file with point data (a rectangle "
+                                          "mesh has none: use level_set = \"<formula>\")")
+    for test in case.tests:
+        if test.kind == "interface" and case.interface is None:
+            fail(f"{test.key}.field", f"{test.field} is an interface field but the case has "
+                                      f"no [interface] (add one, or test DX DY SIXX SIYY SIXY)")
+        if test.type == "MAX_ERROR" and test.field not in case.reference:
+            fail(f"{test.key}.field", f"type = \"MAX_ERROR\" needs the formula "
+                                      f"reference.{test.field} (add it to [reference])")
+        if test.type != "MAX_ERROR" and test.criterion == "RELATIF" and test.reference == 0:
+            fail(f"{test.key}.criterion", "RELATIF needs a non-zero reference "
+                                          "(use criterion = \"ABSOLU\")")
+
+
+# --- messages ------------------------------------------------------------------------------
+
+_BARE = re.compile(r"[A-Za-z0-9_-]+")
+
+
+def _join(at, name):
+    name = name if _BARE.fullmatch(name) else _show(name)
+    return f"{at}.{name}" if at else name
+
+
+def _printable(text):
+    """``text`` with every non-printable character escaped: always one line."""
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii")
+                   for c in text)
+
+
+def _shorten(text, limit=60):
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def _show(value, depth=0):
+    """A TOML value as written in messages: ``"abc"``, ``true``, ``-1``, ``[0, 1]``."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return _printable(json.dumps(_shorten(value, 50), ensure_ascii=False))
+    if isinstance(value, (int, float)):
+        return _shorten(repr(value), 30)
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        if depth > 2:
+            return "[...]"
+        return _shorten("[" + ", ".join(_show(item, depth + 1) for item in value[:5])
+                        + (", ..." if len(value) > 5 else "") + "]")
+    if hasattr(value, "isoformat"):
+        return f"a date/time ({value.isoformat()})"
+    return _shorten(_printable(repr(value)))
+
+
+def _suggest(name, known):
+    """``(did you mean 'x'?)`` for the closest known name, else the list of known names."""
+    known = list(known)
+    folded = {k.casefold(): k for k in known}
+    close = folded.get(name.casefold())
+    if close is None:
+        match = _closest(name.casefold(), list(folded))
+        close = folded[match] if match else None
+    if close is not None:
+        return f"(did you mean '{close}'?)"
+    return f"(known: {', '.join(known)})"
+
+
+def _closest(name, known, cutoff=0.5):
+    """The most similar of ``known`` (the first one on ties), None if none is close."""
+    best, best_ratio = None, cutoff
+    for candidate in known:
+        ratio = difflib.SequenceMatcher(None, name[:100], candidate).ratio()
+        if ratio > best_ratio or (ratio == best_ratio and best is None):
+            best, best_ratio = candidate, ratio
+    return best
+
+
+def _group(keys):
+    return "/".join(f"'{k}'" for k in keys)
+
+
+def _either(keys):
+    quoted = [f"'{k}'" for k in keys]
+    return quoted[0] if len(quoted) == 1 else f"{', '.join(quoted[:-1])} or {quoted[-1]}"

@@ -1,0 +1,312 @@
+"""The case-file format, as data: every key with its type, default, range and meaning.
+
+:data:`CASE` describes a whole TOML case file.  It is a :class:`Table` of
+:class:`Key` entries; the loader (:mod:`xfemcontact.case.load`) walks it
+generically: unknown keys are refused (with a close name suggested), missing
+required keys reported, every value checked against its type and range and
+turned into its canonical form, then the :class:`Table` rules (exactly one
+of, at least one of, not both, required/forbidden when) are checked.
+
+Defaults are written as they would be in TOML and converted like a given value
+(``"OUI"`` becomes ``True``, ``[0, 10]`` a tuple ...); a default of ``None``
+means "absent" and is kept as ``None``.  A table key with the default ``{}``
+is always present, filled with the defaults of its keys.
+
+Value types (``Key.type``):
+
+* ``float``: an int or float (never a bool), finite, within the bounds
+  ``gt``/``ge``/``lt``/``le``; stored as float.
+* ``int``: an int only (``2.0`` is refused), within the bounds.
+* ``str``: any string.
+* ``choice``: a string matched case-insensitively against ``choices``, stored
+  in the spelling of ``choices`` (or mapped through ``values``); with
+  ``booleans``, TOML ``true``/``false`` are accepted as ``"OUI"``/``"NON"``;
+  ``refused`` maps values that are known but not supported to the message.
+* ``choices``: an array of ``choice`` values, stored as a tuple (repeats dropped).
+* ``formula``: a number or a formula string of ``x``, ``y`` and the
+  parameters, compiled at load time into a :class:`~xfemcontact.case.formula.Formula`.
+* ``condition``: a condition string, compiled into a
+  :class:`~xfemcontact.case.formula.Condition`; its variables are
+  ``variables[siblings[context]]`` (they depend on a key validated before it).
+* ``names``: a non-empty string or a non-empty array of them, stored as a tuple.
+* ``point``: an array of two numbers, stored as a tuple of floats.
+* ``interval``: an array of two increasing numbers, stored as a tuple of floats.
+* ``file``: a path relative to the case file's folder, stored resolved; the
+  file must exist.
+* ``table``: a sub-table, described by ``table``.
+* ``tables``: an array of tables (``[[name]]``), stored as a tuple.
+"""
+import json
+import keyword
+from dataclasses import dataclass, field
+
+from xfemcontact.case.formula import CONSTANTS, FUNCTIONS
+
+NODE_FIELDS = ("DX", "DY")
+CELL_FIELDS = ("SIXX", "SIYY", "SIXY")
+INTERFACE_FIELDS = ("LAGS_C", "LAGS_F1", "gap", "slip")
+#: field name -> where it lives: "node", "cell" or "interface"
+FIELD_KIND = {**dict.fromkeys(NODE_FIELDS, "node"), **dict.fromkeys(CELL_FIELDS, "cell"),
+              **dict.fromkeys(INTERFACE_FIELDS, "interface")}
+FIELDS = tuple(FIELD_KIND)
+#: field name -> the variables of a test's ``where`` condition on that field
+CONDITION_VARIABLES = {
+    name: ("x", "y") + {"node": NODE_FIELDS, "cell": CELL_FIELDS,
+                        "interface": INTERFACE_FIELDS}[kind]
+    for name, kind in FIELD_KIND.items()}
+
+MESH_CELLS = ("QUAD8", "TRIA6")
+DIAGONALS = ("right", "left", "alternate")
+MODELS = ("C_PLAN", "D_PLAN")
+LAWS = ("contact", "bonded", "free")
+TEST_TYPES = ("MIN", "MAX", "VALUE", "SOMM_ABS", "MAX_ERROR")
+CRITERIA = ("ABSOLU", "RELATIF")
+OUTPUT_FORMATS = ("xdmf", "vtu", "med")
+MAX_REFINE = 6
+MAX_CELLS_PER_SIDE = 10000
+
+#: names a parameter may not take, with what they already are
+RESERVED_NAMES = {
+    **dict.fromkeys(("x", "y"), "a formula variable"),
+    **dict.fromkeys(FIELDS, "a field name usable in test conditions"),
+    **dict.fromkeys(CONSTANTS, "a constant"),
+    **dict.fromkeys(FUNCTIONS, "a function"),
+    **{word: "a Python keyword" for word in keyword.kwlist},
+}
+#: parameter names: ASCII letters, digits and '_', starting with a letter
+PARAMETER_NAME = r"[A-Za-z][A-Za-z0-9_]*"
+
+_CRACK = "crack tips are not supported (TYPE_DISCONTINUITE='INTERFACE' only)"
+BOOLEAN = {"OUI": True, "NON": False}
+
+
+@dataclass(frozen=True)
+class Key:
+    """One key of a table: its type, whether required, its default, bounds and meaning."""
+
+    type: str
+    doc: str
+    required: bool = False
+    default: object = None
+    gt: float | None = None
+    ge: float | None = None
+    lt: float | None = None
+    le: float | None = None
+    choices: tuple = ()
+    values: dict | None = None
+    booleans: bool = False
+    refused: dict = field(default_factory=dict)
+    table: "Table | None" = None
+    context: str | None = None
+    variables: dict | None = None
+
+
+@dataclass(frozen=True)
+class ExactlyOne:
+    """Exactly one of ``keys`` must be given."""
+
+    keys: tuple
+
+
+@dataclass(frozen=True)
+class AtLeastOne:
+    """At least one of ``keys`` must be given."""
+
+    keys: tuple
+
+
+@dataclass(frozen=True)
+class NotBoth:
+    """Keys of group ``first`` and of group ``second`` cannot be given together."""
+
+    first: tuple
+    second: tuple
+
+
+@dataclass(frozen=True)
+class When:
+    """When the (checked) value of ``key`` is in ``values``: ``require`` / ``forbid`` keys."""
+
+    key: str
+    values: tuple
+    require: tuple = ()
+    forbid: tuple = ()
+    hint: str = ""
+
+
+@dataclass(frozen=True)
+class Table:
+    """A TOML table: its keys in checking order, its rules, and what its free keys are."""
+
+    keys: dict
+    doc: str = ""
+    rules: tuple = ()
+    extra: Key | None = None          # type of the keys not listed (free names)
+
+
+def flag(doc, default):
+    """A boolean key: true/false or "OUI"/"NON"."""
+    return Key("choice", doc, default=default, choices=tuple(BOOLEAN), values=BOOLEAN,
+               booleans=True)
+
+
+def formula(doc, **kwargs):
+    return Key("formula", doc, **kwargs)
+
+
+RECTANGLE = Table({
+    "nx": Key("int", "number of cells along x", required=True, ge=1, le=MAX_CELLS_PER_SIDE),
+    "ny": Key("int", "number of cells along y", required=True, ge=1, le=MAX_CELLS_PER_SIDE),
+    "x": Key("interval", "[xmin, xmax] in m", default=[0.0, 10.0]),
+    "y": Key("interval", "[ymin, ymax] in m", default=[0.0, 10.0]),
+    "cell": Key("choice", "cell type", default="QUAD8", choices=MESH_CELLS),
+    "diagonal": Key("choice", "how TRIA6 split the squares", default="alternate",
+                    choices=DIAGONALS),
+}, doc="structured mesh of a rectangle")
+
+MESH = Table({
+    "file": Key("file", "mesh file (MED, Gmsh, XDMF, VTU), relative to the case file's folder"),
+    "rectangle": Key("table", "structured rectangle mesh: nx, ny, x, y, cell, diagonal",
+                     table=RECTANGLE),
+    "refine": Key("int", "uniform refinements (MACR_ADAP_MAIL RAFFINEMENT_UNIFORME)",
+                  default=0, ge=0, le=MAX_REFINE),
+}, doc="the mesh: file or rectangle", rules=(ExactlyOne(("file", "rectangle")),))
+
+MATERIAL = Table({
+    "E": Key("float", "Young's modulus in Pa", required=True, gt=0),
+    "nu": Key("float", "Poisson's ratio", required=True, gt=-1, lt=0.5),
+    "model": Key("choice", "plane stress or plane strain", default="C_PLAN", choices=MODELS),
+}, doc="E, nu, model: the elastic material")
+
+DIRICHLET = Table({
+    "group": Key("names", "edge or node group(s)", required=True),
+    "DX": formula("imposed x displacement in m, number or formula of x, y"),
+    "DY": formula("imposed y displacement in m, number or formula of x, y"),
+}, doc="DDL_IMPO: imposed displacements", rules=(AtLeastOne(("DX", "DY")),))
+
+TRACTION = Table({
+    "group": Key("names", "edge group(s)", required=True),
+    "FX": formula("x force per unit length in N/m (FORCE_CONTOUR)"),
+    "FY": formula("y force per unit length in N/m (FORCE_CONTOUR)"),
+    "PRES": formula("pressure in Pa, > 0 pushes into the body (PRES_REP)"),
+}, doc="FORCE_CONTOUR or PRES_REP: loads on edges",
+    rules=(AtLeastOne(("FX", "FY", "PRES")), NotBoth(("FX", "FY"), ("PRES",))))
+
+BODY_FORCE = Table({
+    "FX": formula("x force per unit volume in N/m^3"),
+    "FY": formula("y force per unit volume in N/m^3"),
+}, doc="FORCE_INTERNE: body force", rules=(AtLeastOne(("FX", "FY")),))
+
+INTERFACE = Table({
+    "type": Key("choice", "type of discontinuity", default="INTERFACE", choices=("INTERFACE",),
+                refused={"FISSURE": _CRACK, "CRACK": _CRACK}),
+    "level_set": formula("normal level set (FONC_LN), formula of x, y"),
+    "level_set_field": Key("str", "name of nodal point data of the mesh file"),
+    "law": Key("choice", "interface behaviour", default="contact", choices=LAWS),
+}, doc="DEFI_FISS_XFEM: the interface",
+    rules=(ExactlyOne(("level_set", "level_set_field")),))
+
+CONTACT = Table({
+    "frottement": Key("choice", "friction law", default="SANS", choices=("COULOMB", "SANS")),
+    "coulomb": Key("float", "Coulomb friction coefficient", default=0.0, ge=0),
+    "coef_cont": Key("float", "contact augmentation coefficient", default=100.0, gt=0),
+    "coef_frot": Key("float", "friction augmentation coefficient", default=100.0, gt=0),
+    "contact_init": Key("choice", "initial contact status", default="OUI",
+                        choices=("OUI", "NON", "INTERPENETRE"),
+                        values={"OUI": True, "NON": False, "INTERPENETRE": "interpenetrated"},
+                        booleans=True),
+    "seuil_init": Key("float", "initial friction threshold in Pa, negative = compression"),
+    "iter_cont_maxi": Key("int", "most contact status iterations", default=30, ge=1),
+    "iter_frot_maxi": Key("int", "most friction threshold iterations", default=10, ge=1),
+    "resi_frot": Key("float", "friction threshold convergence tolerance", default=1e-4, gt=0),
+    "ordre_int": Key("int", "Gauss points per interface segment", default=4, ge=1, le=8),
+}, doc="DEFI_CONTACT: contact and friction settings", rules=(
+    When("frottement", ("COULOMB",), require=("coulomb",),
+         hint="give the friction coefficient, 0 for none"),
+))
+
+NEWTON = Table({
+    "resi_glob_rela": Key("float", "relative residual tolerance", default=1e-6, gt=0),
+    "iter_glob_maxi": Key("int", "most Newton iterations", default=20, ge=1),
+}, doc="STAT_NON_LINE CONVERGENCE")
+
+REFERENCE = Table({
+    name: formula(f"analytical {name}, formula of x, y") for name in FIELDS
+}, doc="analytical solution: field name -> formula of x, y")
+
+_NOT_MAX_ERROR = tuple(t for t in TEST_TYPES if t != "MAX_ERROR")
+TEST = Table({
+    "name": Key("str", "name of the test"),
+    "field": Key("choice", "tested field", required=True, choices=FIELDS),
+    "type": Key("choice", "what is tested", required=True, choices=TEST_TYPES),
+    "where": Key("condition", "condition selecting the points tested", context="field",
+                 variables=CONDITION_VARIABLES),
+    "point": Key("point", "[x, y] of the point tested, for type VALUE"),
+    "reference": Key("float", "reference value"),
+    "tolerance": Key("float", "tolerance", required=True, gt=0),
+    "criterion": Key("choice", "absolute or relative tolerance", default="RELATIF",
+                     choices=CRITERIA),
+}, doc="TEST_TABLE: a check of the results", rules=(
+    When("type", ("MAX_ERROR",), forbid=("reference",),
+         hint="the error to reference.<field> is compared to 0"),
+    When("type", ("VALUE",), require=("point",), hint="point = [x, y]"),
+    When("type", tuple(t for t in TEST_TYPES if t != "VALUE"), forbid=("point",),
+         hint="point is for type = \"VALUE\" only"),
+    When("type", _NOT_MAX_ERROR, require=("reference",), hint="reference = <number>"),
+))
+
+OUTPUT = Table({
+    "formats": Key("choices", "result file formats", default=["xdmf"], choices=OUTPUT_FORMATS),
+    "plots": flag("draw the interface plots", default=True),
+}, doc="what is written")
+
+PARAMETERS = Table({}, doc="name = number, usable in every formula",
+                   extra=Key("float", "a number usable in every formula"))
+
+CASE = Table({
+    "title": Key("str", "title of the case (default: the file name)"),
+    "parameters": Key("table", PARAMETERS.doc, default={}, table=PARAMETERS),
+    "mesh": Key("table", MESH.doc, required=True, table=MESH),
+    "material": Key("table", MATERIAL.doc, required=True, table=MATERIAL),
+    "dirichlet": Key("tables", DIRICHLET.doc, default=[], table=DIRICHLET),
+    "traction": Key("tables", TRACTION.doc, default=[], table=TRACTION),
+    "body_force": Key("table", BODY_FORCE.doc, table=BODY_FORCE),
+    "interface": Key("table", INTERFACE.doc, table=INTERFACE),
+    "contact": Key("table", CONTACT.doc, default={}, table=CONTACT),
+    "newton": Key("table", NEWTON.doc, default={}, table=NEWTON),
+    "reference": Key("table", REFERENCE.doc, default={}, table=REFERENCE),
+    "test": Key("tables", TEST.doc, default=[], table=TEST),
+    "output": Key("table", OUTPUT.doc, default={}, table=OUTPUT),
+}, doc="an X-FEM contact case")
+
+
+def bounds(key):
+    """The range of a numeric key in words, such as ``"> -1 and < 0.5"`` ("" if none)."""
+    parts = [f"{op} {limit:g}" for op, limit in
+             ((">", key.gt), (">=", key.ge), ("<", key.lt), ("<=", key.le)) if limit is not None]
+    return " and ".join(parts)
+
+
+def reference(table=CASE, prefix=""):
+    """A plain-text reference of the format: one line per key, from the schema."""
+    lines = []
+    for name, key in table.keys.items():
+        dotted = f"{prefix}.{name}" if prefix else name
+        if key.type in ("table", "tables"):
+            brackets = "[[{}]]" if key.type == "tables" else "[{}]"
+            lines.append(f"{brackets.format(dotted):26} {key.doc}")
+            lines.extend(reference(key.table, dotted))
+            if key.table.extra is not None:
+                lines.append(f"{dotted + '.<name>':26} {key.table.extra.doc}")
+            continue
+        what = [key.type]
+        if key.choices:
+            what = [" | ".join(key.choices)]
+        if bounds(key):
+            what.append(bounds(key))
+        if key.required:
+            what.append("required")
+        elif key.default is not None:
+            what.append(f"default {json.dumps(key.default)}")
+        lines.append(f"{dotted:26} {key.doc} ({', '.join(what)})")
+    return lines

@@ -1,0 +1,66 @@
+"""Command line: ``xfemcontact run CASE.toml [-o OUTDIR] [--overwrite] [PETSc options...]``.
+
+Every option we do not know goes to PETSc (``-snes_monitor``, ``-ksp_view``,
+``-log_view``, ``-pc_factor_mat_solver_type``, ``-mat_mumps_icntl_24 1`` ...).
+The case file is the first argument ending in ``.toml``.  Also runs as
+``python -m xfemcontact`` and under ``mpirun -n P``.
+"""
+import sys
+
+import xfemcontact
+
+USAGE = """usage: xfemcontact run CASE.toml [-o OUTDIR] [--overwrite] [PETSc options...]
+
+  CASE.toml        the case file (TOML, see README.md)
+  -o, --output DIR result folder (default: results/<case name>)
+  --overwrite      replace an existing result folder
+  PETSc options    anything else, e.g. -snes_monitor -ksp_view -log_view
+                   -pc_factor_mat_solver_type mumps -mat_mumps_icntl_24 1
+exit codes: 0 solved and all tests OK, 1 a test NOOK, 2 bad input, 3 no convergence
+"""
+
+
+def split_args(argv):
+    """Our arguments and the PETSc ones: ``(case, outdir, overwrite, help, petsc_args)``."""
+    case = outdir = None
+    overwrite = want_help = False
+    petsc = []
+    it = iter(argv)
+    for tok in it:
+        if tok in ("-o", "--output"):
+            outdir = next(it, None)
+        elif tok.startswith("--output="):
+            outdir = tok.split("=", 1)[1]
+        elif tok == "--overwrite":
+            overwrite = True
+        elif tok in ("-h", "--help"):
+            want_help = True
+        elif case is None and not tok.startswith("-") and tok.endswith(".toml"):
+            case = tok
+        else:
+            petsc.append(tok)
+    return case, outdir, overwrite, want_help, petsc
+
+
+def main(argv=None):
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if not argv or argv[0] not in ("run",):
+        print(USAGE, end="", file=sys.stderr if argv else sys.stdout)
+        return 2 if argv and argv[0] not in ("-h", "--help") else 0
+    case, outdir, overwrite, want_help, petsc = split_args(argv[1:])
+    if want_help or case is None:
+        print(USAGE, end="")
+        return 0 if want_help else 2
+    xfemcontact.PETSC_ARGV[:] = petsc
+    from xfemcontact.errors import XfcError
+
+    try:
+        from xfemcontact.run import run
+
+        return run(case, outdir, overwrite)
+    except XfcError as err:
+        from xfemcontact._petsc import PETSc
+
+        if PETSc.COMM_WORLD.rank == 0:
+            print(f"error: {err}", file=sys.stderr, flush=True)
+        return err.exit_code

@@ -1,0 +1,53 @@
+"""Which components are imposed, and their values.
+
+Imposed displacements (code_aster DDL_IMPO) fix DX/DY at the nodes of their
+groups.  At an enriched node the displacement must hold on both sides of the
+interface wherever the interface reaches the constrained boundary, so its
+Heaviside dofs of the same components are fixed to zero when an edge of the
+group through the node touches the interface (or when the group is a group of
+nodes).  The "bonded" interface law fixes every Heaviside dof (zero jump).
+"""
+import numpy as np
+
+from xfemcontact.mesh.plex import NODE, reduce_nodes
+
+
+def _touching_edges(mesh, phi, edges):
+    """Edges ``(k, 3)`` along which LN is not of one strict sign."""
+    p = phi[edges]
+    return ~(np.all(p > 0, axis=1) | np.all(p < 0, axis=1))
+
+
+def fixed_components(mesh, case, geo, values_fn):
+    """Imposed components ``(n, 4)`` (DX, DY, H1X, H1Y) and DX/DY values ``(n, 2)``.
+
+    ``values_fn(nodes, formula)`` evaluates a formula at nodes.
+    """
+    n = len(mesh.x)
+    fixed = np.zeros((n, 4), dtype=bool)
+    values = np.zeros((n, 2))
+    for bc in case.dirichlet:
+        nodes = np.unique(np.concatenate([mesh.group_nodes(g) for g in bc.groups]))
+        hnodes = _heaviside_nodes(mesh, geo, bc.groups) if geo is not None else np.zeros(0, int)
+        for c, comp in enumerate(("DX", "DY")):
+            if comp in bc.components:
+                fixed[nodes, c] = True
+                values[nodes, c] = values_fn(nodes, bc.components[comp])
+                fixed[hnodes, 2 + c] = True
+    if geo is not None:
+        fixed[:, 2:] &= geo.enriched[:, None]
+        if case.interface is not None and case.interface.law == "bonded":
+            fixed[:, 2:] |= geo.enriched[:, None]
+    return fixed, values
+
+
+def _heaviside_nodes(mesh, geo, groups):
+    """Enriched nodes of ``groups`` where the interface reaches the group."""
+    flag = np.zeros(len(mesh.x), dtype=np.int64)
+    for g in groups:
+        edges = mesh.group_edge_nodes(g)
+        touch = _touching_edges(mesh, geo.phi, edges)
+        flag[edges[touch].ravel()] = 1
+        flag[mesh.node_of_point[mesh.group_points(g, NODE)]] = 1      # nodes of a node group
+    flag = reduce_nodes(mesh, flag, "max").astype(bool)
+    return np.nonzero(flag & geo.enriched)[0]

@@ -1,0 +1,133 @@
+"""Test tables like code_aster's TEST_TABLE: computed values against references.
+
+A test reduces one field over a set of samples:
+
+* ``interface`` fields (LAGS_C, LAGS_F1, gap, slip): the interface points
+  (where the interface crosses cell edges), one sample per point and cell;
+* ``node`` fields (DX, DY): the mesh nodes;
+* ``cell`` fields (SIXX, SIYY, SIXY): the quadrature points of the cells (sub-cells
+  of cut cells).
+
+Types: MIN, MAX, SOMM_ABS (sum of absolute values), MAX_ERROR (largest
+``|value - reference formula|``, reference 0), VALUE (the sample nearest to
+``point``).  ``where`` keeps the samples where its condition holds.
+Criterion ABSOLU: ``|value - reference| <= tolerance``; RELATIF:
+``|value - reference| <= tolerance |reference|`` (for MAX_ERROR, relative to the
+largest |reference formula| over the samples).
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class Samples:
+    """One process's samples of one kind: coordinates and field arrays (same length)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    fields: dict
+
+
+@dataclass
+class Outcome:
+    name: str
+    field: str
+    type: str
+    value: float
+    reference: float
+    tolerance: float
+    criterion: str
+    ok: bool
+    count: int
+    at: tuple = None
+
+    @property
+    def error(self):
+        return abs(self.value - self.reference) if np.isfinite(self.value) else np.inf
+
+    def as_dict(self):
+        return {"name": self.name, "field": self.field, "type": self.type, "value": self.value,
+                "reference": self.reference, "error": self.error, "tolerance": self.tolerance,
+                "criterion": self.criterion, "ok": self.ok, "samples": self.count,
+                "at": list(self.at) if self.at is not None else None}
+
+
+def _local(test, s, ref_formula):
+    v = s.fields[test.field]
+    keep = np.ones(len(v), dtype=bool)
+    if test.where is not None and len(v):
+        keep = np.asarray(test.where(x=s.x, y=s.y, **s.fields), dtype=bool)
+    v, x, y = v[keep], s.x[keep], s.y[keep]
+    n = len(v)
+    if test.type in ("MIN", "MAX"):
+        if n == 0:
+            return (n, None)
+        i = int(np.argmin(v) if test.type == "MIN" else np.argmax(v))
+        return (n, (float(v[i]), float(x[i]), float(y[i])))
+    if test.type == "SOMM_ABS":
+        return (n, float(np.abs(v).sum()))
+    if test.type == "MAX_ERROR":
+        if n == 0:
+            return (n, None)
+        r = ref_formula(x=x, y=y)
+        i = int(np.argmax(np.abs(v - r)))
+        return (n, (float(abs(v[i] - r[i])), float(x[i]), float(y[i]), float(np.abs(r).max())))
+    # VALUE
+    if n == 0:
+        return (n, None)
+    d = np.hypot(x - test.point[0], y - test.point[1])
+    i = int(np.argmin(d))
+    return (n, (float(d[i]), float(v[i]), float(x[i]), float(y[i])))
+
+
+def _combine(test, parts):
+    count = sum(p[0] for p in parts)
+    vals = [p[1] for p in parts if p[1] is not None]
+    if test.type == "SOMM_ABS":
+        return count, float(sum(vals)), None, None
+    if not vals:
+        return count, np.nan, None, None
+    if test.type == "MIN":
+        v = min(vals)
+        return count, v[0], (v[1], v[2]), None
+    if test.type == "MAX":
+        v = max(vals)
+        return count, v[0], (v[1], v[2]), None
+    if test.type == "MAX_ERROR":
+        v = max(vals)
+        return count, v[0], (v[1], v[2]), max(p[3] for p in vals)
+    v = min(vals)
+    return count, v[1], (v[2], v[3]), None
+
+
+def evaluate(tests, samples, reference, comm):
+    """Outcomes of ``tests`` (TestSpec) on all processes.
+
+    ``samples``: {"interface"|"node"|"cell": Samples} of this process (a kind
+    may be missing); ``reference``: {field: Formula}.
+    """
+    mpi = comm.tompi4py()
+    out = []
+    for t in tests:
+        s = samples.get(t.kind)
+        local = _local(t, s, reference.get(t.field)) if s is not None else (0, None)
+        count, value, at, ref_scale = _combine(t, mpi.allgather(local))
+        ref = t.reference
+        if t.criterion == "ABSOLU":
+            allowed = t.tolerance
+        else:
+            allowed = t.tolerance * (ref_scale if t.type == "MAX_ERROR" else abs(ref))
+        ok = bool(count > 0 and np.isfinite(value) and abs(value - ref) <= allowed)
+        out.append(Outcome(t.name, t.field, t.type, value, ref, t.tolerance, t.criterion, ok, count, at))
+    return out
+
+
+def table(outcomes):
+    """The test table as text lines (code_aster-like)."""
+    lines = [f"{'':4} {'test':32} {'computed':>17} {'reference':>17} {'error':>10} {'tolerance':>10} criterion"]
+    for o in outcomes:
+        flag = "OK" if o.ok else "NOOK"
+        lines.append(f"{flag:4} {o.name[:32]:32} {o.value:17.10e} {o.reference:17.10e} "
+                     f"{o.error:10.3e} {o.tolerance:10.2e} {o.criterion}")
+    return lines

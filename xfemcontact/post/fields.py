@@ -1,0 +1,66 @@
+"""Displacements, strains and stresses from a solution.
+
+Nodal displacements are the standard dofs (with shifted Heaviside enrichment a
+node's DX, DY are the displacement of its own side).  Stresses are evaluated at
+quadrature points: plain cells with the standard rule, enriched cells on their
+sub-cells with the Heaviside part of each side.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from xfemcontact.assembly import bulk
+from xfemcontact.assembly.system import heaviside_weights
+from xfemcontact.fem import elasticity
+from xfemcontact.xfem import geometry as xgeo
+from xfemcontact.xfem import integration
+
+
+@dataclass
+class PointValues:
+    """Values at quadrature points of a set of cells."""
+
+    cells: np.ndarray    # (k,) local cell index of each row
+    x: np.ndarray        # (k, nq, 2)
+    w: np.ndarray        # (k, nq) weights (0 on padding), m^2
+    side: np.ndarray     # (k, nq) -1/+1 (interface) or 1
+    stress: np.ndarray   # (k, nq, 3) SIXX, SIYY, SIXY, Pa
+    strain: np.ndarray   # (k, nq, 3) EPXX, EPYY, 2 EPXY
+
+
+def nodal_displacement(layout, x_local):
+    """``(n, 2)`` DX, DY at the local nodes, m."""
+    return x_local[layout.u_local]
+
+
+def quadrature_stresses(mesh, geo, layout, D, x_local):
+    """Stresses at the quadrature points of every local cell, as a list of PointValues."""
+    el = mesh.element
+    out = []
+    plain = geo.plain_cells(mesh) if geo is not None else np.arange(len(mesh.cells))
+    for s in range(0, len(plain), bulk.CHUNK):
+        cells = plain[s:s + bulk.CHUNK]
+        pts = integration.cell_points(el, mesh.x[mesh.cell_nodes[cells]], cells, np.ones(len(cells)))
+        ue = x_local[bulk.plain_batch(mesh, layout, cells).local]
+        eps = elasticity.strain(pts.dNdx, ue)
+        out.append(PointValues(cells, pts.x, pts.w, pts.side, eps @ D.T, eps))
+    if geo is not None:
+        for pts in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
+            G = np.concatenate([pts.dNdx, heaviside_weights(mesh, geo, pts)[..., None] * pts.dNdx], axis=2)
+            ue = x_local[bulk.enriched_batch(mesh, layout, pts.cells).local]
+            eps = elasticity.strain(G, ue)
+            out.append(PointValues(pts.cells, pts.x, pts.w, pts.side, eps @ D.T, eps))
+    return out
+
+
+def cell_means(mesh, values):
+    """Area-weighted mean stress and strain ``(nc, 3)`` of every local cell."""
+    nc = len(mesh.cells)
+    area = np.zeros(nc)
+    sig = np.zeros((nc, 3))
+    eps = np.zeros((nc, 3))
+    for v in values:
+        np.add.at(area, v.cells, v.w.sum(axis=1))
+        np.add.at(sig, v.cells, np.einsum("kq,kqi->ki", v.w, v.stress))
+        np.add.at(eps, v.cells, np.einsum("kq,kqi->ki", v.w, v.strain))
+    return sig / area[:, None], eps / area[:, None]

@@ -1,0 +1,338 @@
+"""Cut cells: the interface segment and the curved sub-triangles of each side.
+
+Everything is built in the reference coordinates ``xi`` of the parent cell
+(QUAD8 or TRIA6) and mapped by the cell's own isoparametric map, so curved
+cells are handled like straight ones.
+
+For a cut cell (strictly positive and negative node values):
+
+* its *intersection points* P1, P2 are where LN vanishes on its boundary: the
+  root of the quadratic on a crossed edge, or a vertex with LN = 0 whose two
+  edges in this cell have opposite signs.  Exactly two are required;
+* the *interface segment* is the quadratic curve (SEG3, nodes at s = -1, +1, 0)
+  through P1, P2 and P3, the point of LN = 0 on the perpendicular bisector of
+  P1 P2 (found by Newton's method).  It is oriented with the + side (LN > 0) on
+  its left, so its left normal is the interface normal n (from - to +);
+* each side is the region between the cell boundary and the segment; it is cut
+  into 6-node sub-triangles by a fan from P3 over the boundary path of that
+  side.  The edges P3-P1 and P3-P2 of the fan triangles are the two halves of
+  the segment (their mid-nodes are the segment's points at s = -1/2 and 1/2), so
+  the sub-triangles tile the cell exactly and their interface edges *are* the
+  contact segment.
+
+A cell one of whose edges lies on the interface (LN = 0 at its three nodes) is
+not cut; the edge is an interface segment owned by the cell on the - side.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from xfemcontact.errors import GeometryError
+from xfemcontact.fem.elements import Seg3, element
+from xfemcontact.xfem.levelset import edge_roots
+
+NEWTON_ITS = 50
+
+
+@dataclass
+class Segments:
+    """Interface segments, one per owning cell, in parent reference coordinates."""
+
+    cells: np.ndarray     # (k,) local cell indices
+    nodes: np.ndarray     # (k, 3, 2) xi of (P1, P2, P3); + side on the left of P1 -> P2
+    where: np.ndarray     # (k, 2) local edge of P1, P2, or -1 - local vertex
+
+    def __len__(self):
+        return len(self.cells)
+
+
+@dataclass
+class SubCells:
+    """Sub-triangles of cut cells, padded to ``ns`` per cell."""
+
+    cells: np.ndarray     # (k,) local cell indices
+    nodes: np.ndarray     # (k, ns, 6, 2) xi of the 6 nodes of each sub-triangle
+    side: np.ndarray      # (k, ns) -1 / +1, 0 for padding
+
+
+def phi_at(el, phi_cell, xi):
+    """LN at reference points ``xi (k, ..., 2)`` of cells with node values ``(k, nn)``."""
+    N = el.shape(xi)
+    return np.einsum("k...a,ka->k...", N, phi_cell)
+
+
+def grad_phi_ref(el, phi_cell, xi):
+    return np.einsum("k...ai,ka->k...i", el.dshape(xi), phi_cell)
+
+
+# -- intersection points -------------------------------------------------------
+def intersection_points(el, phi_cell):
+    """Boundary intersection points of cut cells.
+
+    Returns ``(xi (k, 2, 2), where (k, 2), count (k,))``; cells with a count
+    other than 2 are reported by the caller.
+    """
+    k = len(phi_cell)
+    ne = len(el.edges)
+    ea, eb, em = el.edges.T
+    pa, pb, pm = phi_cell[:, ea], phi_cell[:, eb], phi_cell[:, em]
+    crossing = pa * pb < 0
+    roots = edge_roots(pa.ravel(), pb.ravel(), pm.ravel()).reshape(k, ne, 2)
+    s = np.where(np.isnan(roots[..., 0]), roots[..., 1], roots[..., 0])
+    # vertex with LN = 0 whose two edges in this cell have opposite signs
+    sign_edge = _edge_sign(pa, pb, pm)
+    prev = np.roll(np.arange(ne), 1)                     # edge ending at vertex v is v-1
+    vzero = (phi_cell[:, : el.nv] == 0) & (sign_edge * sign_edge[:, prev] < 0)
+    cand = np.concatenate([crossing, vzero], axis=1)      # (k, ne + nv)
+    count = cand.sum(axis=1)
+    ref = el.ref_nodes
+    s_safe = np.where(crossing, s, 0.0)
+    edge_pts = 0.5 * (1 - s_safe)[..., None] * ref[ea] + 0.5 * (1 + s_safe)[..., None] * ref[eb]
+    allpts = np.concatenate([edge_pts, np.broadcast_to(ref[: el.nv], (k, el.nv, 2))], axis=1)
+    where_all = np.r_[np.arange(ne), -1 - np.arange(el.nv)]
+    order = np.argsort(~cand, axis=1, kind="stable")[:, :2]
+    xi = np.take_along_axis(allpts, order[..., None], axis=1)
+    where = where_all[order]
+    return xi, where, count
+
+
+def _edge_sign(pa, pb, pm):
+    """Sign of LN inside each edge that has a zero vertex (uniform after readjustment)."""
+    other = np.where(pa != 0, pa, pb)
+    return np.sign(np.where(pm != 0, pm, other))
+
+
+def _perimeter(el, where, xi):
+    """Perimeter coordinate t in [0, nv) of boundary points."""
+    t = np.empty(where.shape)
+    vert = where < 0
+    t[vert] = (-1 - where[vert]).astype(float)
+    edge = ~vert
+    e = where[edge]
+    a = el.ref_nodes[el.edges[e, 0]]
+    b = el.ref_nodes[el.edges[e, 1]]
+    frac = np.linalg.norm(xi[edge] - a, axis=-1) / np.linalg.norm(b - a, axis=-1)
+    t[edge] = e + frac
+    return t
+
+
+# -- the segment ---------------------------------------------------------------
+def segment_midpoints(el, phi_cell, p1, p2, cell_ids):
+    """P3: LN = 0 on the perpendicular bisector of P1 P2 (reference coordinates)."""
+    mid = 0.5 * (p1 + p2)
+    chord = p2 - p1
+    d = np.stack([-chord[:, 1], chord[:, 0]], axis=-1)
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    t = np.zeros(len(mid))
+    half = 0.5 * np.linalg.norm(chord, axis=-1)
+    for _ in range(NEWTON_ITS):
+        x = mid + t[:, None] * d
+        f = phi_at(el, phi_cell, x)
+        df = np.einsum("ki,ki->k", grad_phi_ref(el, phi_cell, x), d)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.clip(np.where(df != 0, f / df, 0.0), -half, half)
+        t -= step
+        if np.all(np.abs(step) <= 1e-15 * (1 + np.abs(t))):
+            break
+    p3 = mid + t[:, None] * d
+    scale = np.abs(phi_cell).max(axis=1)
+    bad = ~(np.abs(phi_at(el, phi_cell, p3)) <= 1e-10 * scale) | ~el.contains(p3, 1e-9)
+    if bad.any():
+        c = int(np.nonzero(bad)[0][0])
+        raise GeometryError(f"level set: cannot place the interface inside cell {cell_ids[c]} "
+                            f"(no zero of LN on the bisector of its intersection points): refine the mesh there")
+    return p3
+
+
+def orient(el, phi_cell, xi, where):
+    """Order P1, P2 so that the + side is on the left of P1 -> P2."""
+    p1, p2 = xi[:, 0], xi[:, 1]
+    g = grad_phi_ref(el, phi_cell, 0.5 * (p1 + p2))
+    chord = p2 - p1
+    left = np.stack([-chord[:, 1], chord[:, 0]], axis=-1)
+    swap = np.einsum("ki,ki->k", left, g) < 0
+    xi = np.where(swap[:, None, None], xi[:, ::-1], xi)
+    where = np.where(swap[:, None], where[:, ::-1], where)
+    return xi, where
+
+
+# -- sub-triangles -------------------------------------------------------------
+def _side_paths(el, t1, t2):
+    """Boundary corners of each side, in walking order.
+
+    Minus side: from P1 counter-clockwise to P2; plus side: from P2 to P1.
+    Returns two ``(k, nv)`` arrays of corner indices (-1 padding).
+    """
+    nv = el.nv
+    corners = np.arange(nv)[None, :]
+
+    def between(ts, te):
+        span = np.mod(te - ts, nv)[:, None]
+        off = np.mod(corners - ts[:, None], nv)
+        inside = (off > 1e-12) & (off < span - 1e-12)
+        key = np.where(inside, off, np.inf)
+        order = np.argsort(key, axis=1, kind="stable")
+        return np.where(np.take_along_axis(inside, order, axis=1), order, -1)
+
+    return between(t1, t2), between(t2, t1)
+
+
+def _ring(el, seg, path_corners, start, end, s_start, s_end):
+    """The boundary ring of one side: start, corners..., end, P3.
+
+    Returns points ``(k, L, 2)``, the mid-point of each ring edge ``(k, L, 2)``
+    (edge e joins point e and e+1; the last two edges are the halves of the
+    segment, curved) and the ring length ``L (k,)``.
+    """
+    k, nv = path_corners.shape
+    ref = el.ref_nodes
+    ncorner = (path_corners >= 0).sum(axis=1)
+    L = ncorner + 3
+    Lmax = nv + 3
+    rows = np.arange(k)
+    pts = np.zeros((k, Lmax, 2))
+    pts[:, 0] = start
+    pts[:, 1:nv + 1] = ref[np.maximum(path_corners, 0)]
+    pts[rows, L - 2] = end
+    pts[rows, L - 1] = seg[:, 2]
+    nxt = np.where(np.arange(Lmax)[None, :] + 1 < L[:, None], np.arange(Lmax)[None, :] + 1, 0)
+    mids = 0.5 * (pts + np.take_along_axis(pts, nxt[..., None], axis=1))
+    mids[rows, L - 2] = _seg_point(seg, 0.5 * s_end)        # end -> P3
+    mids[rows, L - 1] = _seg_point(seg, 0.5 * s_start)      # P3 -> start
+    return pts, mids, L
+
+
+def _fans(pts, mids, L):
+    """Every fan triangulation of the rings: ``(k, C, T, 6, 2)`` and validity ``(k, C, T)``.
+
+    Fan ``c`` joins ring point c to every ring edge not incident to it; its
+    diagonals are straight, ring edges keep their (possibly curved) mid-points.
+    """
+    k, Lmax, _ = pts.shape
+    T = Lmax - 2
+    c = np.arange(Lmax)[:, None]
+    d = np.arange(1, T + 1)[None, :]
+    Lk = L[:, None, None]
+    ia = np.broadcast_to(c, (Lmax, T))[None] % Lk
+    ib = (c + d)[None] % Lk
+    ic = (c + d + 1)[None] % Lk
+    valid = (c[None] < Lk) & (d[None] <= Lk - 2)
+    rows = np.arange(k)[:, None, None]
+
+    def take(arr, idx):
+        return arr[rows, idx]
+
+    A, B, C = take(pts, ia), take(pts, ib), take(pts, ic)
+    mid_ab = np.where((d == 1)[None, ..., None], take(mids, ia), 0.5 * (A + B))
+    mid_bc = take(mids, ib)
+    mid_ca = np.where((d + 1 == Lk - 1)[..., None], take(mids, ic), 0.5 * (C + A))
+    tri = np.stack([A, B, C, mid_ab, mid_bc, mid_ca], axis=3)
+    return tri, valid
+
+
+def _best_fan(tri, valid):
+    """Pick, per cell, the fan whose worst sub-triangle is the least distorted."""
+    zeta = TRI6.check_points
+    k, C, T = valid.shape
+    det = subcell_jacobians(tri.reshape(k, C * T, 6, 2), zeta).reshape(k, C, T, -1)
+    area = np.abs(det).max(axis=3)
+    quality = np.where(valid, det.min(axis=3) / np.maximum(area, 1e-300), np.inf).min(axis=2)
+    quality[~valid.any(axis=2)] = -np.inf
+    best = np.argmax(quality, axis=1)
+    rows = np.arange(k)
+    return tri[rows, best], valid[rows, best], quality[rows, best]
+
+
+def _seg_point(seg, s):
+    """Point of the segments at abscissa ``s`` (scalar)."""
+    return np.einsum("a,kai->ki", Seg3.shape(np.array(s)), seg)
+
+
+def subcells(el, seg, where):
+    """Sub-triangles of both sides of cut cells with segments ``seg (k, 3, 2)``.
+
+    Returns ``(nodes (k, ns, 6, 2), side (k, ns), quality (k,))``.
+    """
+    t = _perimeter(el, where, seg[:, :2])
+    minus_c, plus_c = _side_paths(el, t[:, 0], t[:, 1])
+    parts, sides, quality = [], [], []
+    for corners, a, b, sa, sb, sgn in ((minus_c, seg[:, 0], seg[:, 1], -1.0, 1.0, -1),
+                                       (plus_c, seg[:, 1], seg[:, 0], 1.0, -1.0, 1)):
+        tri, valid = _fans(*_ring(el, seg, corners, a, b, sa, sb))
+        nodes, ok, q = _best_fan(tri, valid)
+        parts.append(nodes)
+        sides.append(np.where(ok, sgn, 0))
+        quality.append(q)
+    return np.concatenate(parts, axis=1), np.concatenate(sides, axis=1), np.minimum(*quality)
+
+
+TRI6 = element("TRIA6")
+
+
+def subcell_jacobians(nodes, zeta):
+    """det of the maps reference triangle -> parent reference coordinates at ``zeta``."""
+    J = np.einsum("qai,ksaj->ksqji", TRI6.dshape(zeta), nodes)
+    return J[..., 0, 0] * J[..., 1, 1] - J[..., 0, 1] * J[..., 1, 0]
+
+
+def check_subcells(nodes, side, cell_ids):
+    """Every sub-triangle must have a positive Jacobian everywhere."""
+    zeta = TRI6.check_points
+    det = subcell_jacobians(nodes, zeta)
+    area = np.abs(det).max(axis=2)
+    bad = (side != 0) & ~np.all(det > 1e-12 * np.maximum(area, 1e-300)[..., None], axis=2)
+    if bad.any():
+        c = int(np.nonzero(bad.any(axis=1))[0][0])
+        raise GeometryError(f"level set: the interface is too curved in cell {cell_ids[c]} to be "
+                            f"followed by quadratic sub-cells: refine the mesh there")
+
+
+# -- driver ----------------------------------------------------------------------
+def cut_cells(mesh, phi, side):
+    """Segments and sub-cells of the cut cells (``side == 0``)."""
+    el = mesh.element
+    cells = np.nonzero(side == 0)[0]
+    phi_cell = phi[mesh.cell_nodes[cells]]
+    xi, where, count = intersection_points(el, phi_cell)
+    if np.any(count != 2):
+        c = cells[np.nonzero(count != 2)[0][0]]
+        ctr = mesh.x[mesh.cell_nodes[c]].mean(0)
+        raise GeometryError(f"level set: the interface crosses the boundary of cell {mesh.cell_ids[c]} "
+                            f"near ({ctr[0]:.6g}, {ctr[1]:.6g}) {count[np.nonzero(count != 2)[0][0]]} times "
+                            f"(2 expected): refine the mesh there")
+    xi, where = orient(el, phi_cell, xi, where)
+    p3 = segment_midpoints(el, phi_cell, xi[:, 0], xi[:, 1], mesh.cell_ids[cells])
+    seg = np.concatenate([xi, p3[:, None]], axis=1)
+    nodes, sub_side, _ = subcells(el, seg, where)
+    check_subcells(nodes, sub_side, mesh.cell_ids[cells])
+    return Segments(cells, seg, where), SubCells(cells, nodes, sub_side)
+
+
+def edge_segments(mesh, phi, side):
+    """Interface segments lying on cell edges (LN = 0 at the edge's three nodes).
+
+    Each interior such edge is owned by its cell on the - side; edges on the
+    domain boundary are not interfaces.
+    """
+    el = mesh.element
+    on = np.all(phi[mesh.cell_nodes[:, el.edges]] == 0, axis=2)      # (nc, ne)
+    owner = on & (side == -1)[:, None]
+    cells, edges = np.nonzero(owner)
+    if len(cells) == 0:
+        return Segments(cells, np.zeros((0, 3, 2)), np.zeros((0, 2), int))
+    # drop domain-boundary edges
+    bnd = _boundary_mid_nodes(mesh)
+    mids = mesh.cell_nodes[cells, el.edges[edges, 2]]
+    keep = ~np.isin(mids, bnd)
+    cells, edges = cells[keep], edges[keep]
+    ref = el.ref_nodes
+    a, b, m = el.edges[edges].T
+    # the cell is on the - side, the + side is outside: walk the edge clockwise
+    nodes = np.stack([ref[b], ref[a], ref[m]], axis=1)
+    where = np.stack([-1 - b, -1 - a], axis=1)
+    return Segments(cells, nodes, where)
+
+
+def _boundary_mid_nodes(mesh):
+    be = mesh.boundary_edges()
+    return be[:, 2] if len(be) else np.zeros(0, dtype=np.int64)

@@ -1,0 +1,104 @@
+"""Quadrature on the sides of cut cells and on the interface segments.
+
+Points are returned in the parent cell's reference coordinates ``xi`` (where the
+parent's shape functions are evaluated) together with physical positions and
+weights that include every Jacobian (m^2 for areas, m for lengths).
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from xfemcontact.fem.elements import Seg3, physical_gradients
+from xfemcontact.fem.quadrature import gauss_segment, gauss_triangle
+from xfemcontact.xfem.cut import TRI6, subcell_jacobians
+
+#: polynomial degree of the rule on each sub-triangle: exact for the stiffness
+#: of affine parents (TRIA6: 2 + 2 x 2, QUAD8 parallelograms: 4 + 2 x 2 ... + det)
+SUBCELL_DEGREE = {"TRIA6": 6, "QUAD8": 8}
+
+
+@dataclass
+class CellPoints:
+    """Quadrature points of a batch of cells, padded to ``nq`` per cell."""
+
+    cells: np.ndarray    # (k,) local cell indices
+    xi: np.ndarray       # (k, nq, 2) parent reference coordinates
+    x: np.ndarray        # (k, nq, 2) physical coordinates, m
+    w: np.ndarray        # (k, nq) weights, m^2 (0 on padding)
+    side: np.ndarray     # (k, nq) -1 / +1 (0 on padding)
+    dNdx: np.ndarray     # (k, nq, nn, 2) physical gradients of the parent's shape functions
+    N: np.ndarray        # (k, nq, nn) parent shape functions
+
+
+def _parent_maps(el, xc, xi):
+    """Physical points, gradients and det J of parents ``xc (k, nn, 2)`` at ``xi (k, nq, 2)``."""
+    N = el.shape(xi)
+    dN = el.dshape(xi)
+    x = np.einsum("kqa,kai->kqi", N, xc)
+    J = np.einsum("kqaj,kai->kqij", dN, xc)
+    dNdx, det = physical_gradients(dN, J)
+    return N, x, dNdx, det
+
+
+def subcell_points(el, xc, sub):
+    """Quadrature of the sub-triangles ``sub`` (SubCells) of cells with coordinates ``xc``."""
+    zeta, wz = gauss_triangle(SUBCELL_DEGREE[el.name])
+    k, ns = sub.side.shape
+    xi = np.einsum("qa,ksai->ksqi", TRI6.shape(zeta), sub.nodes)            # (k, ns, nq, 2)
+    det_sub = subcell_jacobians(sub.nodes, zeta)                              # (k, ns, nq)
+    w_ref = wz[None, None, :] * det_sub * (sub.side != 0)[..., None]
+    side = np.broadcast_to(sub.side[..., None], w_ref.shape)
+    xi = xi.reshape(k, -1, 2).copy()
+    xi[side.reshape(k, -1) == 0] = _centre(el)          # padding: any point inside
+    N, x, dNdx, det = _parent_maps(el, xc, xi)
+    w = w_ref.reshape(k, -1) * det
+    return CellPoints(sub.cells, xi, x, w, side.reshape(k, -1).copy(), dNdx, N)
+
+
+def _centre(el):
+    return el.ref_nodes[: el.nv].mean(axis=0)
+
+
+def cell_points(el, xc, cells, side, degree=4):
+    """Standard quadrature of whole (uncut) cells, all on side ``side (k,)``."""
+    q, wq = el.quadrature(degree)
+    xi = np.broadcast_to(q, (len(cells),) + q.shape)
+    N, x, dNdx, det = _parent_maps(el, xc, xi)
+    return CellPoints(cells, xi, x, wq[None] * det, np.repeat(side[:, None], len(wq), axis=1), dNdx, N)
+
+
+@dataclass
+class SegmentPoints:
+    """Gauss points of interface segments (one segment per owning cell)."""
+
+    cells: np.ndarray    # (k,)
+    xi: np.ndarray       # (k, ng, 2) parent reference coordinates
+    s: np.ndarray        # (ng,) abscissae on the segment
+    x: np.ndarray        # (k, ng, 2) physical points, m
+    w: np.ndarray        # (k, ng) length weights, m
+    normal: np.ndarray   # (k, ng, 2) unit normal, from - to + (grad LN direction)
+    tangent: np.ndarray  # (k, ng, 2) unit tangent with non-negative x-component
+
+
+def segment_points(el, xc, seg, order):
+    """Gauss-Legendre points (``order`` of them) on segments ``seg`` (cut.Segments)."""
+    s, ws = gauss_segment(order)
+    s = s[:, 0]
+    xi = np.einsum("qa,kai->kqi", Seg3.shape(s), seg.nodes)
+    dxi = np.einsum("qa,kai->kqi", Seg3.dshape(s), seg.nodes)
+    dN = el.dshape(xi)
+    J = np.einsum("kqaj,kai->kqij", dN, xc)
+    dx = np.einsum("kqij,kqj->kqi", J, dxi)
+    ds = np.linalg.norm(dx, axis=-1)
+    x = np.einsum("kqa,kai->kqi", el.shape(xi), xc)
+    n = np.stack([-dx[..., 1], dx[..., 0]], axis=-1) / ds[..., None]
+    return SegmentPoints(seg.cells, xi, s, x, ws[None] * ds, n, tangent_of(n))
+
+
+def tangent_of(n):
+    """code_aster's 2-D tangent: unit, non-negative x-component; e_y when n = +-e_x."""
+    sgn = np.where(n[..., 1] >= 0, 1.0, -1.0)
+    t = np.stack([sgn * n[..., 1], -sgn * n[..., 0]], axis=-1)
+    vertical = np.abs(n[..., 1]) <= 1e-14
+    t[vertical] = [0.0, 1.0]
+    return t

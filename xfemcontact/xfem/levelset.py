@@ -1,0 +1,182 @@
+"""The normal level set LN: nodal values, readjustment near nodes, cell classification.
+
+LN is given at every node, mid-edge nodes included, and interpolated with the
+cell's own shape functions (P2 on TRIA6, serendipity on QUAD8), so the
+interface is the curved zero line of a quadratic field.  LN < 0 is the "-"
+side (code_aster's slave side), LN > 0 the "+" side; n = grad LN / |grad LN|
+points from - to +.
+
+Readjustment rules (applied once, before anything is cut; the counts are
+reported, like code_aster's XFEM_37/XFEM_63 messages):
+
+1. *Round-off.*  |LN_i| <= 1e-12 * (largest |LN| of the nodes of the edges
+   through node i) is set to 0.
+2. *Fit to vertex.*  If the zero of LN on an edge (root of its quadratic
+   interpolant) lies within 1e-6 of the edge's length from one of its vertices,
+   that vertex gets LN = 0: the interface then goes through the vertex.  This
+   moves the interface by at most 1e-6 h and removes sub-cells thinner than that.
+3. *One crossing per edge.*  If the quadratic on an edge changes sign twice (or
+   vanishes at a vertex and changes sign inside), its mid-node value is moved to
+   the nearest value for which the quadratic keeps one sign on the edge: the
+   thin part of the other side cut off by the edge is dropped.  The number of
+   such edges and the largest change of a mid-node value are reported.
+
+Classification of a cell, from its node values after readjustment:
+``cut`` (strictly positive and strictly negative node values), otherwise on the
+side of its non-zero values (``+1`` or ``-1``); a cell whose nodes are all zero
+is an error.  A cell with nodes of one sign but the other sign inside it (a
+closed interface smaller than the cell) is an error asking for a finer mesh.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from xfemcontact.errors import GeometryError
+from xfemcontact.fem.elements import Seg3
+from xfemcontact.mesh.plex import reduce_nodes
+
+ROUNDOFF = 1e-12
+FIT_TO_VERTEX = 1e-6
+
+
+def nodal_values(mesh, interface, node_field=None):
+    """LN at every local node (m^2 or whatever the formula's unit)."""
+    if interface.level_set is not None:
+        return interface.level_set(x=mesh.x[:, 0], y=mesh.x[:, 1])
+    return np.asarray(node_field, dtype=float)
+
+
+def edge_roots(phi_a, phi_b, phi_m):
+    """Roots in the open interval (-1, 1) of the SEG3 quadratic through
+    (-1, phi_a), (1, phi_b), (0, phi_m).  Returns ``(k, 2)`` with NaN for none,
+    sorted."""
+    A = 0.5 * (phi_a + phi_b) - phi_m
+    B = 0.5 * (phi_b - phi_a)
+    C = phi_m
+    roots = np.full((len(A), 2), np.nan)
+    scale = np.abs(phi_a) + np.abs(phi_b) + np.abs(phi_m)
+    lin = np.abs(A) <= 1e-14 * scale
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = -C / B
+        roots[lin, 0] = np.where(np.abs(B[lin]) > 0, r[lin], np.nan)
+        disc = B * B - 4 * A * C
+        q = -0.5 * (B + np.copysign(np.sqrt(np.maximum(disc, 0.0)), B))
+        r1 = q / A
+        r2 = np.where(q != 0, C / q, 0.0)
+        quad = ~lin & (disc >= 0)
+        roots[quad, 0] = np.minimum(r1, r2)[quad]
+        roots[quad, 1] = np.maximum(r1, r2)[quad]
+    roots[~((roots > -1.0) & (roots < 1.0))] = np.nan
+    return roots
+
+
+@dataclass
+class Readjustment:
+    roundoff: int = 0
+    fitted_vertices: int = 0
+    lifted_edges: int = 0
+    max_lift: float = 0.0    # largest change of a mid-node value
+
+
+def _mesh_edges(mesh):
+    """Unique edges of the local cells: ``(k, 3)`` local nodes (a, b, mid)."""
+    e = mesh.cell_nodes[:, mesh.element.edges].reshape(-1, 3)
+    _, first = np.unique(e[:, 2], return_index=True)
+    return e[first]
+
+
+def readjust(mesh, phi):
+    """Apply the readjustment rules; returns ``(phi, Readjustment)``.
+
+    Decisions at nodes shared by several processes are combined so that every
+    process ends with the same values.
+    """
+    phi = np.array(phi, dtype=float)
+    info = Readjustment()
+    edges = _mesh_edges(mesh)
+    a, b, m = edges.T
+    # 1. round-off, relative to the largest value along the edges through the node
+    scale = np.zeros(len(phi))
+    emax = np.max(np.abs(phi[edges]), axis=1)
+    for col in (a, b, m):
+        np.maximum.at(scale, col, emax)
+    scale = reduce_nodes(mesh, scale, "max")
+    tiny = (np.abs(phi) <= ROUNDOFF * scale) & (phi != 0)
+    info.roundoff = int(tiny.sum())
+    phi[tiny] = 0.0
+    # 2. fit to vertex
+    roots = edge_roots(phi[a], phi[b], phi[m])
+    near_a = np.any(roots <= -1.0 + 2 * FIT_TO_VERTEX, axis=1)
+    near_b = np.any(roots >= 1.0 - 2 * FIT_TO_VERTEX, axis=1)
+    flag = np.zeros(len(phi), dtype=np.int64)
+    flag[a[near_a]] = 1
+    flag[b[near_b]] = 1
+    flag = reduce_nodes(mesh, flag, "max").astype(bool) & (phi != 0)
+    info.fitted_vertices = int(flag[: mesh.n_vertices][mesh.node_owned[: mesh.n_vertices]].sum())
+    phi[flag] = 0.0
+    # 3. one crossing per edge
+    phi_m, lifted = _lift_double_crossings(phi[a], phi[b], phi[m])
+    info.lifted_edges = int(lifted.sum())
+    if lifted.any():
+        info.max_lift = float(np.abs(phi_m - phi[m]).max())
+    phi[m] = phi_m
+    return phi, info
+
+
+def _lift_double_crossings(pa, pb, pm):
+    """Mid-node values making each edge quadratic cross zero at most once."""
+    roots = edge_roots(pa, pb, pm)
+    n_inner = np.sum(~np.isnan(roots), axis=1)
+    at_vertex = (pa == 0) | (pb == 0)
+    same = (pa * pb > 0)
+    bad = (same & (n_inner >= 1)) | (at_vertex & ~((pa == 0) & (pb == 0)) & (n_inner >= 1))
+    out = pm.copy()
+    if not bad.any():
+        return out, bad
+    # With u = |values| >= 0 on the edge, the quadratic through (ua, c, ub) has the
+    # minimum value 0 at |s*| >= 1 for c = (sqrt(ua) + sqrt(ub))^2 / 4: it is then
+    # monotone on the edge, which pushes the zero line off the edge (the smaller
+    # root of the same equation would leave it tangent to the edge).
+    s = np.where(pa[bad] + pb[bad] > 0, 1.0, -1.0)        # sign of the edge's values
+    ua, ub = np.abs(pa[bad]), np.abs(pb[bad])
+    c = 0.25 * (np.sqrt(ua) + np.sqrt(ub)) ** 2
+    out[bad] = s * np.maximum(c, 0.0)
+    return out, bad
+
+
+def classify(mesh, phi):
+    """Side of every local cell: -1, +1, or 0 for cut cells."""
+    pc = phi[mesh.cell_nodes]
+    pos = (pc > 0).any(axis=1)
+    neg = (pc < 0).any(axis=1)
+    side = np.where(pos & neg, 0, np.where(pos, 1, -1))
+    zero = ~pos & ~neg
+    if zero.any():
+        c = int(np.nonzero(zero)[0][0])
+        raise GeometryError(f"level set: LN = 0 at every node of cell {mesh.cell_ids[c]} "
+                            f"near ({mesh.x[mesh.cell_nodes[c]].mean(0)[0]:.6g}, "
+                            f"{mesh.x[mesh.cell_nodes[c]].mean(0)[1]:.6g}): the interface is not a curve there")
+    _check_islands(mesh, phi, side)
+    return side
+
+
+def _check_islands(mesh, phi, side):
+    """Cells with nodes of one sign must not contain the other sign."""
+    el = mesh.element
+    q, _ = el.quadrature(4)
+    pts = np.r_[q, 0.5 * (el.ref_nodes[el.edges[:, 0]] + el.ref_nodes[el.edges[:, 2]]),
+                0.5 * (el.ref_nodes[el.edges[:, 1]] + el.ref_nodes[el.edges[:, 2]])]
+    unc = np.nonzero(side != 0)[0]
+    vals = phi[mesh.cell_nodes[unc]] @ el.shape(pts).T          # (k, npts)
+    wrong = np.any(vals * side[unc, None] < 0, axis=1)
+    if wrong.any():
+        c = unc[np.nonzero(wrong)[0][0]]
+        ctr = mesh.x[mesh.cell_nodes[c]].mean(0)
+        raise GeometryError(f"level set: the interface makes a closed curve inside cell "
+                            f"{mesh.cell_ids[c]} near ({ctr[0]:.6g}, {ctr[1]:.6g}), smaller than "
+                            f"the cell: refine the mesh there")
+
+
+def edge_point(xe, s):
+    """Physical point at reference abscissa ``s`` of SEG3 edges ``xe (k, 3, 2)``."""
+    return np.einsum("ka,kai->ki", Seg3.shape(s), xe)
