@@ -11,15 +11,19 @@ import numpy as np
 
 from xfemcontact._petsc import PETSc
 from xfemcontact.assembly import pattern, system
+from xfemcontact.contact import law as claw
+from xfemcontact.contact import space as cspace
+from xfemcontact.contact.operator import InterfaceOperator
 from xfemcontact.dofs import constraints
 from xfemcontact.dofs.layout import DofLayout
 from xfemcontact.errors import MeshError
 from xfemcontact.fem.elasticity import hooke
 from xfemcontact.mesh import plex
 from xfemcontact.post import fields
+from xfemcontact.solver.loops import create_loops
 from xfemcontact.solver.newton import create_snes
 from xfemcontact.timing import phase
-from xfemcontact.xfem import geometry, levelset
+from xfemcontact.xfem import geometry, integration, levelset
 
 
 def build_raw_mesh(case):
@@ -77,6 +81,11 @@ class Model:
         phi = levelset.nodal_values(mesh, itf, field)
         return geometry.build(mesh, phi)
 
+    @property
+    def has_contact(self):
+        itf = self.case.interface
+        return itf is not None and itf.law == "contact" and self.geo is not None
+
     def _layout(self):
         mesh, geo = self.mesh, self.geo
         x = mesh.x
@@ -84,17 +93,75 @@ class Model:
             mesh, self.case, geo, lambda nodes, f: f(x=x[nodes, 0], y=x[nodes, 1]))
         enriched = geo.enriched if geo is not None else np.zeros(len(x), bool)
         multiplier = np.zeros(len(x), bool)
+        self.space = None
+        if self.has_contact:
+            segs = geo.segments()
+            el = mesh.element
+            self.segment_points = integration.segment_points(
+                el, x[mesh.cell_nodes[segs.cells]], segs, self.case.contact.ordre_int)
+            sp = self.segment_points
+            self.space = cspace.build(mesh, segs, self.case.contact.algo_lagr,
+                                      el.shape_linear(sp.xi), sp.w)
+            multiplier = self.space.carriers(mesh)
         self.fixed, self.values = fixed, values
         self.layout = DofLayout(mesh, enriched, multiplier, fixed)
         self.x_bc = system.bc_array(self.layout, fixed, values)
+        if self.space is not None:
+            self._multiplier_dofs()
+
+    def _multiplier_dofs(self):
+        """Global LAGS_C index of every segment vertex, and remote carriers for the pattern."""
+        mesh, layout, space = self.mesh, self.layout, self.space
+        own = layout.multiplier & mesh.node_owned
+        mpi = self.comm.tompi4py()
+        parts = mpi.allgather((mesh.node_ids[own], layout.lag_global[own, 0]))
+        ids = np.concatenate([p[0] for p in parts])
+        idx = np.concatenate([p[1] for p in parts])
+        owner = np.concatenate([np.full(len(p[0]), r) for r, p in enumerate(parts)])
+        order = np.argsort(ids)
+        ids, idx, owner = ids[order], idx[order], owner[order]
+        segs = self.geo.segments()
+        co = space.carriers_of
+        live = co >= 0
+        rep = space.representative(np.where(live, co, space.ids[0]))
+        pos = np.searchsorted(ids, rep)
+        self.rep_index = np.where(live, idx[pos], -1)
+        # carriers as points of the matrix pattern: a local node, or a remote point
+        vloc = np.argsort(mesh.node_ids[: mesh.n_vertices])
+        vids = mesh.node_ids[: mesh.n_vertices][vloc]
+        if len(vids):
+            j = np.minimum(np.searchsorted(vids, rep), len(vids) - 1)
+            local = (vids[j] == rep) & live
+            point = np.where(local, vloc[j], -1)
+        else:
+            local = np.zeros(rep.shape, bool)
+            point = np.full(rep.shape, -1)
+        remote_ids, rpos = np.unique(rep[~local & live], return_inverse=True)
+        point[~local & live] = len(mesh.x) + rpos
+        rp = np.searchsorted(ids, remote_ids)
+        self.remote_points = (idx[rp], np.full(len(rp), 2), owner[rp])
+        self.interface_points = np.concatenate([mesh.cell_nodes[segs.cells], point], axis=1)
 
     def _couplings(self):
         """Point lists of every element coupling (for the matrix pattern)."""
-        return [self.mesh.cell_nodes]
+        blocks = [self.mesh.cell_nodes]
+        if self.space is not None:
+            blocks.append(self.interface_points)
+        return blocks
 
     def _assemble(self):
         mesh, geo, layout = self.mesh, self.geo, self.layout
-        self.K = pattern.create_matrix(layout, self._couplings())
+        self.interface = None
+        if self.space is not None:
+            c = self.case.contact
+            self.law = claw.Law(c.coef_cont, c.coef_frot, c.coulomb, c.friction)
+            self.interface = InterfaceOperator(mesh, geo, layout, self.space, self.rep_index, self.law,
+                                               self.segment_points, c.contact_init is not False,
+                                               c.seuil_init)
+        remote = self.remote_points if self.space is not None else None
+        self.K = pattern.create_matrix(layout, self._couplings(), remote)
+        if self.interface is not None:
+            self._zero_interface_pattern(self.K)
         lift = layout.local_array()
         system.assemble_bulk(mesh, geo, layout, self.D, self.K, lift, self.x_bc)
         self.K.assemble()
@@ -104,30 +171,72 @@ class Model:
         system.add_tractions(mesh, geo, layout, self.case.traction, f_ext)
         self.f0 = system.local_to_global(layout, lift - f_ext)
         self.load_norm = self.f0.norm()
+        self.J = self.K if self.interface is None else self.K.duplicate(copy=True)
+
+    def _zero_interface_pattern(self, A):
+        """Explicit zeros on every interface coupling, so the pattern never changes."""
+        from xfemcontact._petsc import PETSc
+
+        g = self.interface.gidx.astype(PETSc.IntType)
+        A.setValuesRCV(g, g, np.zeros((len(g), g.shape[1], g.shape[1])),
+                       addv=PETSc.InsertMode.ADD_VALUES)
 
     # -- solve --------------------------------------------------------------
     def residual(self, snes, x, f):
         self.K.mult(x, f)
         f.axpy(1.0, self.f0)
+        if self.interface is not None:
+            self.interface.add_residual(x, f)
 
     def jacobian(self, snes, x, J, P):
-        pass
+        if self.interface is None:
+            return
+        from xfemcontact._petsc import PETSc
+
+        self.K.copy(J, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
+        self.interface.add_jacobian(x, J)
+        J.assemble()
 
     def solve(self):
-        """Newton on the bulk problem; returns the SNES converged reason."""
+        """Newton (inside the contact loops if any); returns the outermost converged reason."""
         newton = self.case.newton
         f = self.layout.create_global_vec()
         self.snes, self.newton_test = create_snes(
-            self.comm, self.residual, self.jacobian, self.K, f,
+            self.comm, self.residual, self.jacobian, self.J, f,
             newton.resi_glob_rela, newton.iter_glob_maxi, lambda: self.load_norm)
+        self.loops = None
         with phase("solve"):
-            self.snes.solve(None, self.x)
-        return self.snes.getConvergedReason()
+            if self.interface is None:
+                self.snes.solve(None, self.x)
+                return self.snes.getConvergedReason()
+            outer, self.contact_snes, self.loops = create_loops(self, self.snes, self.case.contact)
+            self.outer_snes = outer
+            outer.solve(None, self.x)
+            return outer.getConvergedReason()
+
+    def lags_c(self, x):
+        """LAGS_C dofs owned by this process."""
+        own = self.layout.multiplier & self.mesh.node_owned
+        idx = self.layout.lag_global[own, 0] - self.layout.ownership_start
+        return x.getArray(readonly=True)[idx].copy()
 
     # -- results ------------------------------------------------------------
     def local_solution(self):
         """Local work array of the solution, imposed values included."""
         return system.global_to_local(self.layout, self.x, self.x_bc)
+
+    def interface_values(self):
+        """Interface point values of this process (see InterfaceOperator.point_values)."""
+        return self.interface.point_values(self.x) if self.interface is not None else None
+
+    def interface_samples(self):
+        """Samples of the interface fields for test tables."""
+        from xfemcontact.post.checks import Samples
+
+        v = self.interface_values()
+        if v is None:
+            return {}
+        return {"interface": Samples(v["x"], v["y"], {k: v[k] for k in ("LAGS_C", "LAGS_F1", "gap", "slip")})}
 
     def displacement(self):
         return fields.nodal_displacement(self.layout, self.local_solution())

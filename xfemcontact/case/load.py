@@ -82,6 +82,7 @@ class Contact:
     iter_frot_maxi: int
     resi_frot: float
     ordre_int: int
+    algo_lagr: str = "AUTO"           # AUTO (= VERSION3) | VERSION3 | NON
 
 
 @dataclass(frozen=True)

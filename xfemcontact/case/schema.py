@@ -220,6 +220,9 @@ CONTACT = Table({
     "iter_frot_maxi": Key("int", "most friction threshold iterations", default=10, ge=1),
     "resi_frot": Key("float", "friction threshold convergence tolerance", default=1e-4, gt=0),
     "ordre_int": Key("int", "Gauss points per interface segment", default=4, ge=1, le=8),
+    "algo_lagr": Key("choice", "multiplier space: AUTO = VERSION3 (unique multipliers), "
+                     "NON = raw vertex space (singular, for comparison)", default="AUTO",
+                     choices=("AUTO", "VERSION3", "NON")),
 }, doc="DEFI_CONTACT: contact and friction settings", rules=(
     When("frottement", ("COULOMB",), require=("coulomb",),
          hint="give the friction coefficient, 0 for none"),

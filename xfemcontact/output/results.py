@@ -22,11 +22,54 @@ def summary(model, converged, reason, outcomes):
                  "cells": mpi.allreduce(len(model.mesh.cells)),
                  "nodes": mpi.allreduce(int(model.mesh.node_owned.sum()))},
         "dofs": dict(model.layout.counts(), total=model.layout.global_size),
-        "iterations": {"newton": snes.getIterationNumber() if snes else 0},
-        "residual_history": list(getattr(model, "newton_test", None).history if snes else []),
+        "iterations": iterations(model),
+        "residual_history": list(model.newton_test.history if snes else []),
+        "warnings": list(model.loops.warnings) if model.loops else [],
+        "geometry": geometry_summary(model),
+        "multipliers": model.space.summary() if model.space is not None else None,
         "timings": {k: round(v, 4) for k, v in timing.TIMINGS.items()},
         "tests": [o.as_dict() for o in outcomes],
+        "interface": interface_table(model),
     }
+
+
+def iterations(model):
+    """Iteration counts of every loop."""
+    loops = model.loops
+    if loops is None:
+        return {"newton": model.snes.getIterationNumber() if model.snes else 0}
+    return {"newton": int(sum(loops.newton)), "newton_per_solve": list(loops.newton),
+            "contact": list(loops.contact), "friction": int(loops.friction),
+            "status_changes": list(loops.status_changes),
+            "threshold_changes": [float(c) for c in loops.threshold_changes]}
+
+
+def geometry_summary(model):
+    geo = model.geo
+    if geo is None:
+        return None
+    mpi = model.comm.tompi4py()
+    r = geo.readjustment
+    return {"cut_cells": mpi.allreduce(len(geo.cut_cells)),
+            "edge_segments": mpi.allreduce(len(geo.edge_segments)),
+            "enriched_nodes": mpi.allreduce(int((geo.enriched & model.mesh.node_owned).sum())),
+            "dropped_heaviside_nodes": mpi.allreduce(geo.dropped),
+            "readjusted": {"roundoff": mpi.allreduce(r.roundoff), "fitted_vertices": mpi.allreduce(r.fitted_vertices),
+                           "lifted_edges": mpi.allreduce(r.lifted_edges)}}
+
+
+def interface_table(model):
+    """Interface point values gathered on rank 0, ordered by (input cell, end)."""
+    v = model.interface_values()
+    if v is None:
+        return None
+    parts = model.comm.tompi4py().gather(v, root=0)
+    if parts is None:
+        return None
+    allv = {k: np.concatenate([p[k] for p in parts]) for k in v}
+    order = np.lexsort((allv["end"], allv["cell"]))
+    keys = ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding", "cell", "end")
+    return {k: allv[k][order].tolist() for k in keys}
 
 
 def write_fields(folder, model, u, values):

@@ -1,0 +1,87 @@
+"""code_aster's continuous augmented-Lagrangian contact with Coulomb friction, pointwise.
+
+At an interface Gauss point, with the jump [u] = u+ - u- (m), the unit normal
+n (from - to +) and code_aster's tangent tau (non-negative x-component):
+
+* gap ``g = [u].n`` (> 0 opening), tangential jump ``ut = [u].tau``;
+* contact pressure ``lam`` = LAGS_C (Pa, negative in compression), friction
+  semi-multiplier ``Lam`` = LAGS_F1 (dimensionless);
+* status ``chi``: 1 in contact, 0 not; threshold ``s`` (Pa, negative in
+  compression, from the previous threshold iteration).
+
+Weak form per unit length (rho_n = COEF_CONT in Pa/m, rho_t = COEF_FROT in
+1/m, used as given, like code_aster):
+
+* chi = 1: (lam + rho_n g) dg + g dlam;  chi = 0: -(lam / rho_n) dlam;
+* friction active (chi = 1, mu s != 0), with the trial value
+  ``gt = Lam - rho_t ut`` and its projection ``p`` on [-1, 1]:
+  mu s p dut + (mu s / rho_t) (Lam - p) dLam;
+* friction inactive: Lam dLam (so Lam = 0).
+
+At convergence lam = sigma_nn and mu s Lam = sigma_nt: LAGS_F1 =
+sigma_nt / (mu sigma_nn), |LAGS_F1| <= 1, = 1 in slip.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+STICK_TOL = 1e-12          # |gt| <= 1 + STICK_TOL is stick (code_aster)
+THRESHOLD_ZERO = 1e-11     # |s| below this (Pa) is taken as 0 (code_aster XREACL)
+
+
+@dataclass
+class Law:
+    coef_cont: float       # rho_n, Pa/m
+    coef_frot: float       # rho_t, 1/m
+    mu: float              # Coulomb coefficient (0: frictionless)
+    friction: bool
+
+
+def point_terms(law, chi, s, g, ut, lam, Lam):
+    """Coefficients of the residual and tangent at every point (arrays of one shape).
+
+    Returns a dict of arrays:
+    ``rg`` (coefficient of dg), ``rl`` (of dlam), ``rt`` (of dut), ``rL`` (of dLam),
+    and tangent coefficients ``gg, gl, ll, tt, tL, LL`` (d rg/dg, d rg/dlam,
+    d rl/dlam, d rt/dut, d rt/dLam = d rL/dut, d rL/dLam).
+    """
+    rho, rho_t, mu = law.coef_cont, law.coef_frot, law.mu
+    on = chi.astype(bool)
+    z = np.zeros_like(g)
+    t = {
+        "rg": np.where(on, lam + rho * g, 0.0),
+        "rl": np.where(on, g, -lam / rho),
+        "gg": np.where(on, rho, 0.0),
+        "gl": np.where(on, 1.0, 0.0),
+        "ll": np.where(on, 0.0, -1.0 / rho),
+    }
+    musig = mu * s
+    active = on & law.friction & (np.abs(musig) > 0)
+    gt = Lam - rho_t * ut
+    stick = np.abs(gt) <= 1.0 + STICK_TOL
+    p = np.where(stick, gt, np.sign(gt))
+    kn = np.where(stick, 1.0, 0.0)
+    t["rt"] = np.where(active, musig * p, 0.0)
+    t["rL"] = np.where(active, (musig / rho_t) * (Lam - p), Lam)
+    t["tt"] = np.where(active, -musig * rho_t * kn, 0.0)
+    t["tL"] = np.where(active, musig * kn, 0.0)
+    t["LL"] = np.where(active, (musig / rho_t) * (1.0 - kn), 1.0)
+    t["slip"] = active & ~stick
+    return t
+
+
+def update_status(law, chi, g, lam, gap_tol=1e-16, release_tol=2.2e-16):
+    """code_aster's status test after Newton: returns the new statuses.
+
+    Not in contact -> in contact when it interpenetrates (-g > gap_tol);
+    in contact -> released when lam + rho_n g > release_tol.
+    """
+    new = chi.copy()
+    new[(chi == 0) & (-g > gap_tol)] = 1
+    new[(chi == 1) & (lam + law.coef_cont * g > release_tol)] = 0
+    return new
+
+
+def threshold(lam):
+    """New friction threshold s = lam (0 where |lam| < THRESHOLD_ZERO)."""
+    return np.where(np.abs(lam) < THRESHOLD_ZERO, 0.0, lam)

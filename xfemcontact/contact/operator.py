@@ -1,0 +1,189 @@
+"""Interface terms: contact and friction on every interface Gauss point, by batches.
+
+An interface element is the segment of one owning cell.  Its dofs, in order:
+H1X of the cell's nodes, H1Y of the cell's nodes, LAGS_C and LAGS_F1 of the
+multiplier carriers the cell's vertices take their values from (see
+:mod:`xfemcontact.contact.space`; merged vertices share one dof).  The
+jump at a point is ``[u] = 2 sum_j N_j h_j`` (shifted Heaviside), so only
+Heaviside dofs enter.  Values are gathered from the global solution with one
+VecScatter (a merged multiplier may live on another process) and contributions
+are added with ADD_VALUES (PETSc sends the off-process ones).
+"""
+import numpy as np
+
+from xfemcontact._petsc import PETSc
+from xfemcontact.contact import law as claw
+from xfemcontact.xfem import integration
+
+
+class InterfaceOperator:
+    def __init__(self, mesh, geo, layout, space, rep_index, law, pts, contact_init=True,
+                 seuil_init=None):
+        """``pts``: :class:`integration.SegmentPoints` of ``geo.segments()``."""
+        self.mesh, self.layout, self.law = mesh, layout, law
+        el = mesh.element
+        segs = geo.segments()
+        self.segments = segs
+        self.pts = pts
+        nodes = mesh.cell_nodes[segs.cells]
+        self.N = el.shape(self.pts.xi)                                        # (k, ng, nn)
+        self.phi = space.functions(el.shape_linear(self.pts.xi))              # (k, ng, m)
+        self.enr = geo.enriched[nodes]                                         # (k, nn)
+        self.space = space
+        lam_idx = rep_index                                                    # (k, m) global LAGS_C
+        hg = np.where(self.enr[:, None, :], layout.h_global[nodes].transpose(0, 2, 1), -1)  # (k, 2, nn)
+        self.gidx = np.concatenate([hg.reshape(len(nodes), -1), lam_idx,
+                                    np.where(lam_idx >= 0, lam_idx + 1, -1)], axis=1)
+        self.nn, self.nv = el.nn, lam_idx.shape[1]
+        self._scatter_setup()
+        k, ng = self.pts.w.shape
+        self.chi = np.full((k, ng), 1 if contact_init else 0, dtype=np.int64)
+        self.s = np.full((k, ng), float(seuil_init) if seuil_init is not None else 0.0)
+
+    # -- gathering ----------------------------------------------------------
+    def _scatter_setup(self):
+        g = self.gidx
+        uniq = np.unique(g[g >= 0]).astype(PETSc.IntType)
+        self.uniq = uniq
+        self.pos = np.where(g >= 0, np.searchsorted(uniq, np.maximum(g, 0)), -1)
+        comm = self.mesh.comm
+        self.xg = self.layout.create_global_vec()
+        self.seq = PETSc.Vec().createSeq(len(uniq), comm=PETSc.COMM_SELF)
+        iset = PETSc.IS().createGeneral(uniq, comm=PETSc.COMM_SELF)
+        self.scatter = PETSc.Scatter().create(self.xg, iset, self.seq, None)
+
+    def element_values(self, x):
+        """``(k, nd)`` values of the interface dofs of ``x`` (global Vec)."""
+        self.scatter.scatter(x, self.seq, addv=PETSc.InsertMode.INSERT_VALUES,
+                             mode=PETSc.ScatterMode.FORWARD)
+        vals = np.r_[self.seq.getArray(readonly=True), 0.0]
+        return vals[self.pos]
+
+    # -- kinematics ---------------------------------------------------------
+    def point_fields(self, ve):
+        """Jump components, gap, tangential jump, LAGS_C, LAGS_F1 at the Gauss points."""
+        nn, nv = self.nn, self.nv
+        hx, hy = ve[:, :nn], ve[:, nn:2 * nn]
+        lam_v, Lam_v = ve[:, 2 * nn:2 * nn + nv], ve[:, 2 * nn + nv:]
+        jx = 2.0 * np.einsum("kqa,ka->kq", self.N, hx)
+        jy = 2.0 * np.einsum("kqa,ka->kq", self.N, hy)
+        n, t = self.pts.normal, self.pts.tangent
+        g = jx * n[..., 0] + jy * n[..., 1]
+        ut = jx * t[..., 0] + jy * t[..., 1]
+        lam = np.einsum("kqa,ka->kq", self.phi, lam_v)
+        Lam = np.einsum("kqa,ka->kq", self.phi, Lam_v)
+        return g, ut, lam, Lam
+
+    def _operators(self):
+        """``a_n, a_t (k, ng, 2 nn)``: d g / d h and d ut / d h."""
+        N2 = 2.0 * self.N * self.enr[:, None, :]
+        n, t = self.pts.normal, self.pts.tangent
+        a_n = np.concatenate([N2 * n[..., :1], N2 * n[..., 1:]], axis=2)
+        a_t = np.concatenate([N2 * t[..., :1], N2 * t[..., 1:]], axis=2)
+        return a_n, a_t
+
+    # -- residual and tangent -------------------------------------------------
+    def terms(self, x):
+        g, ut, lam, Lam = self.point_fields(self.element_values(x))
+        return claw.point_terms(self.law, self.chi, self.s, g, ut, lam, Lam)
+
+    def add_residual(self, x, f):
+        t = self.terms(x)
+        w = self.pts.w
+        a_n, a_t = self._operators()
+        Rh = np.einsum("kq,kqd->kd", w * t["rg"], a_n) + np.einsum("kq,kqd->kd", w * t["rt"], a_t)
+        Rl = np.einsum("kq,kqa->ka", w * t["rl"], self.phi)
+        RL = np.einsum("kq,kqa->ka", w * t["rL"], self.phi)
+        R = np.concatenate([Rh, Rl, RL], axis=1)
+        f.setValues(self.gidx.ravel().astype(PETSc.IntType), R.ravel(), addv=PETSc.InsertMode.ADD_VALUES)
+        f.assemblyBegin()
+        f.assemblyEnd()
+
+    def add_jacobian(self, x, J):
+        t = self.terms(x)
+        w = self.pts.w
+        a_n, a_t = self._operators()
+        phi = self.phi
+        k, nd = self.gidx.shape
+        nh = 2 * self.nn
+        nv = self.nv
+        K = np.zeros((k, nd, nd))
+        K[:, :nh, :nh] = (np.einsum("kq,kqi,kqj->kij", w * t["gg"], a_n, a_n)
+                          + np.einsum("kq,kqi,kqj->kij", w * t["tt"], a_t, a_t))
+        Khl = np.einsum("kq,kqi,kqa->kia", w * t["gl"], a_n, phi)
+        KhL = np.einsum("kq,kqi,kqa->kia", w * t["tL"], a_t, phi)
+        K[:, :nh, nh:nh + nv] = Khl
+        K[:, nh:nh + nv, :nh] = Khl.transpose(0, 2, 1)
+        K[:, :nh, nh + nv:] = KhL
+        K[:, nh + nv:, :nh] = KhL.transpose(0, 2, 1)
+        K[:, nh:nh + nv, nh:nh + nv] = np.einsum("kq,kqa,kqb->kab", w * t["ll"], phi, phi)
+        K[:, nh + nv:, nh + nv:] = np.einsum("kq,kqa,kqb->kab", w * t["LL"], phi, phi)
+        g = self.gidx.astype(PETSc.IntType)
+        J.setValuesRCV(g, g, K, addv=PETSc.InsertMode.ADD_VALUES)
+
+    # -- statuses -------------------------------------------------------------
+    def update_status(self, x):
+        """Apply the status test; returns the number of points (all processes) that changed."""
+        g, ut, lam, Lam = self.point_fields(self.element_values(x))
+        new = claw.update_status(self.law, self.chi, g, lam)
+        changed = int((new != self.chi).sum())
+        self.chi = new
+        return self.mesh.comm.tompi4py().allreduce(changed)
+
+    def update_threshold(self, x):
+        g, ut, lam, Lam = self.point_fields(self.element_values(x))
+        self.s = claw.threshold(lam)
+
+    def counts(self):
+        """Points in contact and in slip (all processes)."""
+        mpi = self.mesh.comm.tompi4py()
+        return mpi.allreduce(int(self.chi.sum())), mpi.allreduce(int(self.chi.size))
+
+    def multiplier_values(self, x):
+        """LAGS_C dof values held by this process's interface elements (for loop tests)."""
+        ve = self.element_values(x)
+        return ve[:, 2 * self.nn:2 * self.nn + self.nv][self.gidx[:, 2 * self.nn:2 * self.nn + self.nv] >= 0]
+
+    # -- results at the interface points ----------------------------------------
+    def point_values(self, x):
+        """Values at the ends (P1, P2) of every segment: where the interface crosses
+        cell edges (code_aster's NFISSU points), one entry per point and cell.
+
+        Returns a dict of flat arrays: x, y (m), LAGS_C (Pa), LAGS_F1 (-), gap,
+        slip (m, normal and tangential jump), contact (1/0), sliding (1/0), cell
+        (input cell index), end (0 for P1, 1 for P2).
+        """
+        from xfemcontact.fem.elements import Seg3
+
+        mesh, el, segs = self.mesh, self.mesh.element, self.segments
+        ve = self.element_values(x)
+        nn, nv = self.nn, self.nv
+        xc = mesh.x[mesh.cell_nodes[segs.cells]]
+        out = {k: [] for k in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding",
+                               "cell", "end")}
+        g_all, ut_all, lam_all, Lam_all = self.point_fields(ve)
+        t = self.terms(x)
+        for end, s in ((0, -1.0), (1, 1.0)):
+            xi = segs.nodes[:, end]
+            N = el.shape(xi)
+            pos = np.einsum("ka,kai->ki", N, xc)
+            J = np.einsum("kaj,kai->kij", el.dshape(xi), xc)
+            dxi = np.einsum("a,kai->ki", Seg3.dshape(np.array(s)), segs.nodes)
+            tan = np.einsum("kij,kj->ki", J, dxi)
+            n = np.stack([-tan[:, 1], tan[:, 0]], axis=1) / np.linalg.norm(tan, axis=1)[:, None]
+            tau = integration.tangent_of(n)
+            phi = self.space.functions(el.shape_linear(xi))
+            jx = 2.0 * np.einsum("ka,ka->k", N * self.enr, ve[:, :nn])
+            jy = 2.0 * np.einsum("ka,ka->k", N * self.enr, ve[:, nn:2 * nn])
+            q = 0 if end == 0 else -1            # nearest Gauss point for the statuses
+            out["x"].append(pos[:, 0])
+            out["y"].append(pos[:, 1])
+            out["LAGS_C"].append(np.einsum("ka,ka->k", phi, ve[:, 2 * nn:2 * nn + nv]))
+            out["LAGS_F1"].append(np.einsum("ka,ka->k", phi, ve[:, 2 * nn + nv:]))
+            out["gap"].append(jx * n[:, 0] + jy * n[:, 1])
+            out["slip"].append(jx * tau[:, 0] + jy * tau[:, 1])
+            out["contact"].append(self.chi[:, q].astype(float))
+            out["sliding"].append(t["slip"][:, q].astype(float))
+            out["cell"].append(mesh.cell_ids[segs.cells])
+            out["end"].append(np.full(len(segs), end))
+        return {k: np.concatenate(v) for k, v in out.items()}

@@ -1,0 +1,151 @@
+"""code_aster's contact loops as SNES outer iterations (Python-type SNES).
+
+Innermost first:
+
+* Newton (the SNES with no prefix): statuses and thresholds frozen, to
+  RESI_GLOB_RELA (``-snes_rtol``);
+* the contact status loop (SNES prefix ``contact_``): after each Newton solve
+  the status test is applied, until no point changes (at most ITER_CONT_MAXI,
+  ``-contact_snes_max_it``).  Its monitored "norm" is the number of interface
+  Gauss points whose status changed.  As in code_aster, with friction reaching
+  the limit is a warning (forced convergence, alarm CONTACT3_86), without it an
+  error;
+* the friction threshold loop (prefix ``friction_``): s <- LAGS_C, until LAGS_C
+  changes by less than RESI_FROT relative (``-friction_snes_rtol``), at most
+  ITER_FROT_MAXI (``-friction_snes_max_it``); at least two iterations run
+  (the first reference is zero).  Its "norm" is that relative change.
+
+``-contact_snes_monitor`` / ``-friction_snes_monitor`` print them.
+"""
+import numpy as np
+
+from xfemcontact._petsc import PETSc
+
+Reason = PETSc.SNES.ConvergedReason
+
+
+class LoopRecord:
+    """Iteration counts of every loop, for results.json."""
+
+    def __init__(self):
+        self.newton = []           # Newton iterations of every Newton solve
+        self.contact = []          # status iterations of every contact loop
+        self.friction = 0
+        self.status_changes = []   # changes after every Newton solve
+        self.threshold_changes = []
+        self.warnings = []
+
+
+def _python_snes(comm, prefix, context, max_it, rtol=0.0):
+    snes = PETSc.SNES().create(comm=comm)
+    snes.setOptionsPrefix(prefix)
+    snes.setType(PETSc.SNES.Type.PYTHON)
+    snes.setPythonContext(context)
+    snes.setTolerances(rtol=rtol, max_it=max_it)
+    return snes
+
+
+class ContactLoop:
+    """Status fixed point around Newton."""
+
+    def __init__(self, model, newton, record):
+        self.model, self.newton, self.record = model, newton, record
+
+    def view(self, snes, viewer):
+        viewer.printfASCII("contact status loop (code_aster ITER_CONT_MAXI)\n")
+
+    def solve(self, snes, b, x):
+        op, newton = self.model.interface, self.newton
+        max_it = snes.getTolerances()[3]
+        for k in range(1, max_it + 1):
+            newton.solve(None, x)
+            self.record.newton.append(newton.getIterationNumber())
+            if newton.getConvergedReason() <= 0:
+                snes.setIterationNumber(k)
+                snes.setConvergedReason(Reason.DIVERGED_INNER)
+                self.record.contact.append(k)
+                return
+            changed = op.update_status(x)
+            self.record.status_changes.append(changed)
+            snes.setIterationNumber(k)
+            snes.setFunctionNorm(float(changed))
+            snes.monitor(k, float(changed))
+            if changed == 0:
+                self.record.contact.append(k)
+                snes.setConvergedReason(Reason.CONVERGED_FNORM_ABS)
+                return
+        self.record.contact.append(max_it)
+        if self.model.law.friction:
+            self.record.warnings.append(
+                f"contact statuses still changing after ITER_CONT_MAXI = {max_it} iterations "
+                f"({changed} points): convergence forced, as code_aster does with friction "
+                f"(alarm CONTACT3_86); check for interpenetration or use smaller load steps")
+            snes.setConvergedReason(Reason.CONVERGED_ITS)
+        else:
+            snes.setConvergedReason(Reason.DIVERGED_MAX_IT)
+
+
+class FrictionLoop:
+    """Threshold fixed point around the contact loop."""
+
+    def __init__(self, model, contact, record):
+        self.model, self.contact, self.record = model, contact, record
+
+    def view(self, snes, viewer):
+        viewer.printfASCII("friction threshold loop (code_aster ITER_FROT_MAXI, RESI_FROT)\n")
+
+    def solve(self, snes, b, x):
+        model = self.model
+        rtol, _, _, max_it = snes.getTolerances()
+        previous = None
+        for k in range(1, max_it + 1):
+            if k > 1:
+                model.interface.update_threshold(x)
+            self.contact.solve(None, x)
+            if self.contact.getConvergedReason() <= 0:
+                snes.setIterationNumber(k)
+                snes.setConvergedReason(Reason.DIVERGED_INNER)
+                self.record.friction = k
+                return
+            lam = model.lags_c(x)
+            change = _relative_change(model.comm, lam, previous)
+            self.record.threshold_changes.append(change)
+            snes.setIterationNumber(k)
+            snes.setFunctionNorm(change)
+            snes.monitor(k, change)
+            self.record.friction = k
+            if previous is not None and change < rtol:
+                snes.setConvergedReason(Reason.CONVERGED_FNORM_RELATIVE)
+                return
+            previous = lam
+        snes.setConvergedReason(Reason.DIVERGED_MAX_IT)
+
+
+def _relative_change(comm, lam, previous):
+    """max |lam - previous| / max |lam| over all processes (1 for the first iteration)."""
+    mpi = comm.tompi4py()
+    if previous is None:
+        return 1.0
+    num = mpi.allreduce(float(np.abs(lam - previous).max(initial=0.0)), op=_max())
+    den = mpi.allreduce(float(np.abs(lam).max(initial=0.0)), op=_max())
+    return num / den if den > 0 else (0.0 if num == 0 else np.inf)
+
+
+def _max():
+    from mpi4py import MPI
+
+    return MPI.MAX
+
+
+def create_loops(model, newton, case_contact):
+    """The outermost loop SNES (friction if friction is on, else contact) and the record."""
+    record = LoopRecord()
+    comm = model.comm
+    contact = _python_snes(comm, "contact_", ContactLoop(model, newton, record), case_contact.iter_cont_maxi)
+    contact.setFromOptions()
+    if not model.law.friction:
+        return contact, contact, record
+    friction = _python_snes(comm, "friction_", FrictionLoop(model, contact, record),
+                            case_contact.iter_frot_maxi, case_contact.resi_frot)
+    friction.setFromOptions()
+    return friction, contact, record
