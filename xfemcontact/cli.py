@@ -44,23 +44,45 @@ def split_args(argv):
 
 def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] not in ("run",):
-        print(USAGE, end="", file=sys.stderr if argv else sys.stdout)
-        return 2 if argv and argv[0] not in ("-h", "--help") else 0
+    if not argv or argv[0] in ("-h", "--help"):
+        print(USAGE, end="")
+        return 0
+    if argv[0] != "run":
+        print(USAGE, end="", file=sys.stderr)
+        return 2
     case, outdir, overwrite, want_help, petsc = split_args(argv[1:])
     if want_help or case is None:
         print(USAGE, end="")
         return 0 if want_help else 2
     xfemcontact.PETSC_ARGV[:] = petsc
-    from xfemcontact.errors import XfcError
+    from xfemcontact._petsc import PETSc
+    from xfemcontact.errors import CaseError, FormulaError, XfcError
 
+    comm = PETSc.COMM_WORLD
     try:
         from xfemcontact.run import run
 
         return run(case, outdir, overwrite)
-    except XfcError as err:
-        from xfemcontact._petsc import PETSc
-
-        if PETSc.COMM_WORLD.rank == 0:
+    except (CaseError, FormulaError) as err:
+        # raised identically on every process (the case is read by all): report once
+        if comm.rank == 0:
             print(f"error: {err}", file=sys.stderr, flush=True)
         return err.exit_code
+    except XfcError as err:
+        print(f"error: {err}", file=sys.stderr, flush=True)
+        return _finish(comm, err.exit_code)
+    except BaseException:
+        if comm.size == 1:
+            raise
+        import traceback
+
+        traceback.print_exc()
+        return _finish(comm, 1)
+
+
+def _finish(comm, code):
+    """Leave with ``code``; under MPI a failure on one process must stop all of them."""
+    if comm.size > 1:
+        sys.stderr.flush()
+        comm.tompi4py().Abort(code)
+    return code

@@ -26,6 +26,11 @@ from xfemcontact.timing import phase
 from xfemcontact.xfem import geometry, integration, levelset
 
 
+def _mumps_count(v):
+    """MUMPS writes large counts as negative millions."""
+    return int(v) if v >= 0 else int(-v) * 1000000
+
+
 def build_raw_mesh(case):
     """The case's mesh on rank 0 (read or generated, refined); None elsewhere."""
     if PETSc.COMM_WORLD.rank != 0:
@@ -63,6 +68,8 @@ class Model:
         self.x = self.layout.create_global_vec()
         self.x.set(0.0)
         self.snes = None
+        self.loops = None
+        self.n_jacobians = 0
 
     @classmethod
     def from_case(cls, case, raw=None):
@@ -178,6 +185,8 @@ class Model:
         from xfemcontact._petsc import PETSc
 
         g = self.interface.gidx.astype(PETSc.IntType)
+        if len(g) == 0:           # petsc4py divides by the batch size
+            return
         A.setValuesRCV(g, g, np.zeros((len(g), g.shape[1], g.shape[1])),
                        addv=PETSc.InsertMode.ADD_VALUES)
 
@@ -189,6 +198,7 @@ class Model:
             self.interface.add_residual(x, f)
 
     def jacobian(self, snes, x, J, P):
+        self.n_jacobians += 1
         if self.interface is None:
             return
         from xfemcontact._petsc import PETSc
@@ -213,6 +223,26 @@ class Model:
             self.outer_snes = outer
             outer.solve(None, self.x)
             return outer.getConvergedReason()
+
+    def solver_info(self):
+        """Linear solver facts: type, factorisations, MUMPS statistics when MUMPS factors."""
+        if self.snes is None:
+            return None
+        ksp = self.snes.getKSP()
+        pc = ksp.getPC()
+        info = {"ksp": ksp.getType(), "pc": pc.getType(), "jacobians": self.n_jacobians}
+        try:
+            info["solver"] = pc.getFactorSolverType()
+        except Exception:      # not a factorising preconditioner
+            return info
+        if info["solver"] == "mumps" and self.n_jacobians:
+            F = pc.getFactorMatrix()
+            info["mumps"] = {"null_pivots": int(F.getMumpsInfog(28)),
+                             "status": int(F.getMumpsInfog(1)),
+                             "factor_entries": _mumps_count(F.getMumpsInfog(29)),
+                             "ordering": int(F.getMumpsInfog(7)),
+                             "memory_mb_total": int(F.getMumpsInfog(31))}
+        return info
 
     def lags_c(self, x):
         """LAGS_C dofs owned by this process."""

@@ -47,7 +47,7 @@ def run(case_path, outdir=None, overwrite=False):
     timing.reset()
     case = load_case(case_path)
     outdir = outdir or f"results/{case.name}"
-    folder = OutputFolder(outdir, overwrite, comm.rank)
+    folder = OutputFolder(outdir, overwrite, comm.tompi4py())
     try:
         from xfemcontact.model import Model
 
@@ -63,9 +63,8 @@ def run(case_path, outdir=None, overwrite=False):
             outcomes = checks.evaluate(case.tests, samples, case.reference, comm)
         with timing.phase("output"):
             results.write_fields(folder, model, u, values)
-            timing.TIMINGS["total"] = time.perf_counter() - t0
-            summary = results.summary(model, converged, reason, outcomes)
-            folder.write_json("results.json", summary)
+        timing.TIMINGS["total"] = time.perf_counter() - t0
+        folder.write_json("results.json", results.summary(model, converged, reason, outcomes))
         folder.commit()
     except BaseException:
         folder.abort()

@@ -106,6 +106,8 @@ def add_matrices(A, batch, K, rows=slice(None)):
     from xfemcontact._petsc import PETSc
 
     g = batch.glob[rows].astype(PETSc.IntType)
+    if len(g) == 0:               # petsc4py divides by the batch size
+        return
     A.setValuesRCV(g, g, K, addv=PETSc.InsertMode.ADD_VALUES)
 
 

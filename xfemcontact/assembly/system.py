@@ -59,14 +59,14 @@ def add_body_forces(mesh, geo, layout, body, f_local):
         cells = plain[s:s + bulk.CHUNK]
         pts = integration.cell_points(el, mesh.x[mesh.cell_nodes[cells]], cells, np.ones(len(cells)))
         fe = loads.body_forces(pts.N, pts.w, pts.x, body)
-        np.add.at(f_local, bulk.plain_batch(mesh, layout, cells).local, fe.reshape(len(cells), -1))
+        np.add.at(f_local, bulk.plain_batch(mesh, layout, cells).local, fe.reshape(len(cells), fe.shape[1] * fe.shape[2]))
     if geo is None:
         return
     for pts in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
         psi = heaviside_weights(mesh, geo, pts)
         vals = np.concatenate([pts.N, psi * pts.N], axis=2)
         fe = loads.body_forces(vals, pts.w, pts.x, body)
-        np.add.at(f_local, bulk.enriched_batch(mesh, layout, pts.cells).local, fe.reshape(len(pts.cells), -1))
+        np.add.at(f_local, bulk.enriched_batch(mesh, layout, pts.cells).local, fe.reshape(len(pts.cells), fe.shape[1] * fe.shape[2]))
 
 
 def add_tractions(mesh, geo, layout, traction, f_local):
@@ -78,7 +78,7 @@ def add_tractions(mesh, geo, layout, traction, f_local):
                 continue
             xe = mesh.x[nodes]
             fe = _edge_forces_by_side(mesh, geo, nodes, xe, spec)        # (k, 2, 6)
-            np.add.at(f_local, _edge_dofs(layout, nodes), fe.reshape(len(nodes), -1))
+            np.add.at(f_local, _edge_dofs(layout, nodes), fe.reshape(len(nodes), fe.shape[1] * fe.shape[2]))
 
 
 def _edge_dofs(layout, nodes):

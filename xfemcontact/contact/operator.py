@@ -32,7 +32,7 @@ class InterfaceOperator:
         self.space = space
         lam_idx = rep_index                                                    # (k, m) global LAGS_C
         hg = np.where(self.enr[:, None, :], layout.h_global[nodes].transpose(0, 2, 1), -1)  # (k, 2, nn)
-        self.gidx = np.concatenate([hg.reshape(len(nodes), -1), lam_idx,
+        self.gidx = np.concatenate([hg.reshape(len(nodes), 2 * el.nn), lam_idx,
                                     np.where(lam_idx >= 0, lam_idx + 1, -1)], axis=1)
         self.nn, self.nv = el.nn, lam_idx.shape[1]
         self._scatter_setup()
@@ -95,7 +95,8 @@ class InterfaceOperator:
         Rl = np.einsum("kq,kqa->ka", w * t["rl"], self.phi)
         RL = np.einsum("kq,kqa->ka", w * t["rL"], self.phi)
         R = np.concatenate([Rh, Rl, RL], axis=1)
-        f.setValues(self.gidx.ravel().astype(PETSc.IntType), R.ravel(), addv=PETSc.InsertMode.ADD_VALUES)
+        live = self.gidx >= 0           # parallel Vecs refuse negative indices
+        f.setValues(self.gidx[live].astype(PETSc.IntType), R[live], addv=PETSc.InsertMode.ADD_VALUES)
         f.assemblyBegin()
         f.assemblyEnd()
 
@@ -119,6 +120,8 @@ class InterfaceOperator:
         K[:, nh:nh + nv, nh:nh + nv] = np.einsum("kq,kqa,kqb->kab", w * t["ll"], phi, phi)
         K[:, nh + nv:, nh + nv:] = np.einsum("kq,kqa,kqb->kab", w * t["LL"], phi, phi)
         g = self.gidx.astype(PETSc.IntType)
+        if len(g) == 0:           # petsc4py divides by the batch size
+            return
         J.setValuesRCV(g, g, K, addv=PETSc.InsertMode.ADD_VALUES)
 
     # -- statuses -------------------------------------------------------------

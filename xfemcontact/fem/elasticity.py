@@ -96,4 +96,4 @@ def internal_forces(G, w, sigma):
     """Element internal forces ``(ne, 2 nf)`` = sum_q w B^T sigma, sigma ``(ne, nq, 3)``."""
     s = sigma[..., _VOIGT]                                   # (ne, nq, 2, 2) tensor
     f = np.einsum("eqfk,eqik,eq->eif", G, s, w, optimize=True)
-    return f.reshape(len(G), -1)
+    return f.reshape(len(G), f.shape[1] * f.shape[2])

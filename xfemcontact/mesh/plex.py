@@ -375,28 +375,25 @@ def reduce_nodes(mesh, values, op="sum"):
     values = np.ascontiguousarray(values)
     if mesh.comm.size == 1:
         return values.copy()
+    if values.ndim > 1:          # one column at a time: MPI reductions need basic types
+        flat = values.reshape(len(values), int(np.prod(values.shape[1:])))
+        cols = [reduce_nodes(mesh, np.ascontiguousarray(flat[:, j]), op) for j in range(flat.shape[1])]
+        return np.stack(cols, axis=1).reshape(values.shape)
     from mpi4py import MPI
 
     mpi_op = {"sum": MPI.SUM, "max": MPI.MAX, "min": MPI.MIN}[op]
     unit = MPI._typedict[values.dtype.char]
     nchart = mesh.dm.getChart()[1]
-    shape = (nchart,) + values.shape[1:]
-    data = np.zeros(shape, dtype=values.dtype)
+    data = np.zeros(nchart, dtype=values.dtype)
     data[mesh.node_points] = values
     leaf = data.copy()
     root = data.copy()
-    ghosts = mesh.node_points[~mesh.node_owned]
     if op == "sum":
-        root[ghosts] = 0           # a ghost's own value reaches its owner through the SF
+        root[mesh.node_points[~mesh.node_owned]] = 0   # a ghost's value reaches its owner through the SF
     sf = mesh.dm.getPointSF()
-    flat = int(np.prod(values.shape[1:], dtype=int))
-    if flat > 1:
-        unit = unit.Create_contiguous(flat).Commit()
     sf.reduceBegin(unit, leaf, root, mpi_op)
     sf.reduceEnd(unit, leaf, root, mpi_op)
     out = root.copy()
     sf.bcastBegin(unit, root, out, MPI.REPLACE)
     sf.bcastEnd(unit, root, out, MPI.REPLACE)
-    if flat > 1:
-        unit.Free()
     return out[mesh.node_points]

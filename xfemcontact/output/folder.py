@@ -15,23 +15,39 @@ from xfemcontact.errors import CaseError
 
 
 class OutputFolder:
-    def __init__(self, path, overwrite=False, rank=0):
+    def __init__(self, path, overwrite=False, comm=None):
+        """``comm``: an mpi4py communicator (rank 0 decides, everybody learns)."""
         self.path = Path(path)
-        self.rank = rank
+        self.rank = comm.rank if comm is not None else 0
         self.tmp = self.path.parent / f".{self.path.name}.tmp-{os.getpid()}"
-        if rank != 0:
-            return
-        if self.path.exists() and not overwrite:
-            raise CaseError(f"{self.path}: output folder exists (use --overwrite to replace it, "
-                            f"or -o to choose another)")
+        self._made = []          # folders we created (removed again on abort)
+        problem = self._problem(overwrite) if self.rank == 0 else None
+        if comm is not None and comm.size > 1:
+            problem = comm.bcast(problem, root=0)
+        if problem:
+            raise CaseError(problem)
+
+    def _problem(self, overwrite):
         if self.path.exists() and not self.path.is_dir():
-            raise CaseError(f"{self.path}: exists and is not a folder")
-        self.path.parent.mkdir(parents=True, exist_ok=True)
+            return f"{self.path}: exists and is not a folder"
+        if self.path.exists() and not overwrite:
+            return (f"{self.path}: output folder exists (use --overwrite to replace it, "
+                    f"or -o to choose another)")
+        return None
+
+    def _start(self):
+        if self._made:
+            return
+        missing = [p for p in reversed(self.path.parents) if not p.exists()]
+        for p in missing:
+            p.mkdir()
         shutil.rmtree(self.tmp, ignore_errors=True)
         self.tmp.mkdir()
+        self._made = missing + [self.tmp]
 
     def file(self, name):
-        """Path of ``name`` inside the folder being written."""
+        """Path of ``name`` inside the folder being written (created on first use)."""
+        self._start()
         return self.tmp / name
 
     def write_text(self, name, text):
@@ -46,6 +62,7 @@ class OutputFolder:
         """Replace the target by the finished folder."""
         if self.rank != 0:
             return
+        self._start()
         old = None
         if self.path.exists():
             old = self.path.parent / f".{self.path.name}.old-{os.getpid()}"
@@ -55,8 +72,14 @@ class OutputFolder:
             shutil.rmtree(old, ignore_errors=True)
 
     def abort(self):
-        if self.rank == 0:
-            shutil.rmtree(self.tmp, ignore_errors=True)
+        if self.rank != 0 or not self._made:
+            return
+        shutil.rmtree(self.tmp, ignore_errors=True)
+        for p in reversed(self._made[:-1]):      # parents we made, if still empty
+            try:
+                p.rmdir()
+            except OSError:
+                break
 
 
 def _jsonable(obj):

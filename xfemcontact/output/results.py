@@ -25,6 +25,7 @@ def summary(model, converged, reason, outcomes):
         "iterations": iterations(model),
         "residual_history": list(model.newton_test.history if snes else []),
         "warnings": list(model.loops.warnings) if model.loops else [],
+        "linear_solver": model.solver_info(),
         "geometry": geometry_summary(model),
         "multipliers": model.space.summary() if model.space is not None else None,
         "timings": {k: round(v, 4) for k, v in timing.TIMINGS.items()},

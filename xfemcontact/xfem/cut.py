@@ -195,6 +195,15 @@ def _ring(el, seg, path_corners, start, end, s_start, s_end):
     pts[:, 1:nv + 1] = ref[np.maximum(path_corners, 0)]
     pts[rows, L - 2] = end
     pts[rows, L - 1] = seg[:, 2]
+    # a side without corners (the interface leaves and meets the same straight
+    # edge) is a lens: split it at the midpoint of that edge, else the fan
+    # triangle would have a flat angle at P3
+    lens = ncorner == 0
+    if lens.any():
+        L = np.where(lens, 4, L)
+        pts[lens, 1] = 0.5 * (start[lens] + end[lens])
+        pts[lens, 2] = end[lens]
+        pts[lens, 3] = seg[lens, 2]
     nxt = np.where(np.arange(Lmax)[None, :] + 1 < L[:, None], np.arange(Lmax)[None, :] + 1, 0)
     mids = 0.5 * (pts + np.take_along_axis(pts, nxt[..., None], axis=1))
     mids[rows, L - 2] = _seg_point(seg, 0.5 * s_end)        # end -> P3
@@ -292,6 +301,9 @@ def cut_cells(mesh, phi, side):
     """Segments and sub-cells of the cut cells (``side == 0``)."""
     el = mesh.element
     cells = np.nonzero(side == 0)[0]
+    if len(cells) == 0:
+        return (Segments(cells, np.zeros((0, 3, 2)), np.zeros((0, 2), np.int64)),
+                SubCells(cells, np.zeros((0, 2 * (el.nv + 1), 6, 2)), np.zeros((0, 2 * (el.nv + 1)), np.int64)))
     phi_cell = phi[mesh.cell_nodes[cells]]
     xi, where, count = intersection_points(el, phi_cell)
     if np.any(count != 2):

@@ -48,11 +48,11 @@ def subcell_points(el, xc, sub):
     det_sub = subcell_jacobians(sub.nodes, zeta)                              # (k, ns, nq)
     w_ref = wz[None, None, :] * det_sub * (sub.side != 0)[..., None]
     side = np.broadcast_to(sub.side[..., None], w_ref.shape)
-    xi = xi.reshape(k, -1, 2).copy()
-    xi[side.reshape(k, -1) == 0] = _centre(el)          # padding: any point inside
+    xi = xi.reshape(k, ns * xi.shape[2], 2).copy()
+    xi[side.reshape(k, ns * len(wz)) == 0] = _centre(el)          # padding: any point inside
     N, x, dNdx, det = _parent_maps(el, xc, xi)
-    w = w_ref.reshape(k, -1) * det
-    return CellPoints(sub.cells, xi, x, w, side.reshape(k, -1).copy(), dNdx, N)
+    w = w_ref.reshape(k, ns * len(wz)) * det
+    return CellPoints(sub.cells, xi, x, w, side.reshape(k, ns * len(wz)).copy(), dNdx, N)
 
 
 def _centre(el):

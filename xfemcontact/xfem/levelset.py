@@ -9,12 +9,15 @@ points from - to +.
 Readjustment rules (applied once, before anything is cut; the counts are
 reported, like code_aster's XFEM_37/XFEM_63 messages):
 
-1. *Round-off.*  |LN_i| <= 1e-12 * (largest |LN| of the nodes of the edges
-   through node i) is set to 0.
+1. *Round-off.*  |LN_i| <= 1e-12 * (largest |LN| of the nodes of the cells
+   holding node i) is set to 0.
 2. *Fit to vertex.*  If the zero of LN on an edge (root of its quadratic
    interpolant) lies within 1e-6 of the edge's length from one of its vertices,
-   that vertex gets LN = 0: the interface then goes through the vertex.  This
-   moves the interface by at most 1e-6 h and removes sub-cells thinner than that.
+   that vertex gets LN = 0: the interface then goes through the vertex.  An
+   edge whose two vertices are then 0 and whose mid-node value is below the
+   same relative tolerance lies on the interface (its mid-node gets 0 too).
+   This moves the interface by at most about 1e-6 h and removes sub-cells
+   thinner than that.
 3. *One crossing per edge.*  If the quadratic on an edge changes sign twice (or
    vanishes at a vertex and changes sign inside), its mid-node value is moved to
    the nearest value for which the quadratic keeps one sign on the edge: the
@@ -37,6 +40,7 @@ from xfemcontact.mesh.plex import reduce_nodes
 
 ROUNDOFF = 1e-12
 FIT_TO_VERTEX = 1e-6
+VERTEX_ROOT = 1e-10       # reference-abscissa distance at which an edge root is its vertex
 
 
 def nodal_values(mesh, interface, node_field=None):
@@ -66,7 +70,8 @@ def edge_roots(phi_a, phi_b, phi_m):
         quad = ~lin & (disc >= 0)
         roots[quad, 0] = np.minimum(r1, r2)[quad]
         roots[quad, 1] = np.maximum(r1, r2)[quad]
-    roots[~((roots > -1.0) & (roots < 1.0))] = np.nan
+    # roots within round-off of a vertex are the vertex, not a crossing inside
+    roots[~((roots > -1.0 + VERTEX_ROOT) & (roots < 1.0 - VERTEX_ROOT))] = np.nan
     return roots
 
 
@@ -95,11 +100,11 @@ def readjust(mesh, phi):
     info = Readjustment()
     edges = _mesh_edges(mesh)
     a, b, m = edges.T
-    # 1. round-off, relative to the largest value along the edges through the node
+    # 1. round-off, relative to the largest value in the cells holding the node
+    cmax = np.max(np.abs(phi[mesh.cell_nodes]), axis=1)
     scale = np.zeros(len(phi))
-    emax = np.max(np.abs(phi[edges]), axis=1)
-    for col in (a, b, m):
-        np.maximum.at(scale, col, emax)
+    for col in mesh.cell_nodes.T:
+        np.maximum.at(scale, col, cmax)
     scale = reduce_nodes(mesh, scale, "max")
     tiny = (np.abs(phi) <= ROUNDOFF * scale) & (phi != 0)
     info.roundoff = int(tiny.sum())
@@ -114,6 +119,8 @@ def readjust(mesh, phi):
     flag = reduce_nodes(mesh, flag, "max").astype(bool) & (phi != 0)
     info.fitted_vertices = int(flag[: mesh.n_vertices][mesh.node_owned[: mesh.n_vertices]].sum())
     phi[flag] = 0.0
+    on_edge = (phi[a] == 0) & (phi[b] == 0) & (np.abs(phi[m]) <= 2 * FIT_TO_VERTEX * scale[m])
+    phi[m[on_edge]] = 0.0
     # 3. one crossing per edge
     phi_m, lifted = _lift_double_crossings(phi[a], phi[b], phi[m])
     info.lifted_edges = int(lifted.sum())

@@ -1,0 +1,237 @@
+"""X-FEM geometry of the SSNV509 circular interface: side areas, interface length,
+int n ds and their convergence under refinement; the enrichment rule.
+
+LN = (x - 5)^2 + (y - 11.77)^2 - 64.27 on [0, 10]^2.  LN < 0 ("-" side) is the
+part of the square inside the circle, above its lower arc; LN > 0 ("+") is the
+part below the arc.  LN is a quadratic polynomial, so both QUAD8 (serendipity,
+x^2 and y^2 are in the space) and TRIA6 interpolate it exactly: the only
+geometric error is the quadratic (SEG3) representation of the arc in each cut
+cell, O(h^3) pointwise and O(h^4) for areas and length (odd error terms cancel).
+
+Exact values (R^2 = 64.27, yc = 11.77, F(u) = (u sqrt(R^2 - u^2) + R^2 asin(u/R)) / 2
+the antiderivative of sqrt(R^2 - u^2)):
+
+* area of the "-" side = int_0^10 [10 - (yc - sqrt(R^2 - (x-5)^2))] dx
+                       = 2 F(5) - 10 (yc - 10);  "+" side = 100 - that;
+* interface length = R * 2 asin(5 / R) = 10.797891203332386;
+* int n ds with n = grad LN / |grad LN| (outward from the circle).  Every
+  interface segment is oriented with the + side on its left and n is its left
+  normal, so n ds = rot(dx) with rot(v) = (-v_y, v_x), and int n ds telescopes
+  to rot(end - start) along the chain of segments.  The + side (below the arc)
+  is on the left when walking in -x, so the chain runs from C = (10, yA) to
+  A = (0, yA), yA = yc - sqrt(R^2 - 25):  int n ds = rot(A - C) = rot((-10, 0))
+  = (0, -10) (pointing down, out of the circle, as expected on its lower arc).
+  This is exact for the discrete interface too: on affine cells dx/ds is linear
+  on each SEG3 segment (4 Gauss points integrate it exactly) and the end points
+  on x = 0 and x = 10 are roots of the edge quadratic, on which LN (quadratic
+  in y there) is interpolated exactly.
+"""
+import math
+
+import numpy as np
+import pytest
+
+from tests.conftest import MESHES
+from xfemcontact.mesh import plex
+from xfemcontact.mesh.generate import rectangle
+from xfemcontact.mesh.read import read_mesh
+from xfemcontact.mesh.refine import refine_uniform
+from xfemcontact.xfem import geometry, integration
+from xfemcontact.xfem.cut import TRI6, subcell_jacobians
+
+XC, YC, R2 = 5.0, 11.77, 64.27
+R = math.sqrt(R2)
+LENGTH = 10.797891203332386
+
+
+def _F(u):
+    """Antiderivative of sqrt(R^2 - u^2)."""
+    return 0.5 * (u * math.sqrt(R2 - u * u) + R2 * math.asin(u / R))
+
+
+def exact_areas():
+    """(area of the - side, area of the + side) of [0, 10]^2."""
+    # the lower arc crosses x = 0 and x = 10 inside the square, stays above y = 0,
+    # and the upper arc is above y = 10: the - side is {y >= arc} exactly
+    assert YC - R > 0 and 0 < YC - math.sqrt(R2 - 25) < 10 and YC + R > 10 and R > 5
+    minus = 2 * _F(5.0) - 10 * (YC - 10)
+    return minus, 100.0 - minus
+
+
+def phi_ssnv509(mesh):
+    x, y = mesh.x[:, 0], mesh.x[:, 1]
+    return (x - XC) ** 2 + (y - YC) ** 2 - R2
+
+
+def side_areas(mesh, geo):
+    """Sum of the quadrature weights by side over every cell (sub-cells for cut cells)."""
+    areas = {-1: 0.0, 1: 0.0}
+    wmin = np.inf
+    for pts in geometry.cell_points(mesh, geo, np.arange(len(mesh.cells))):
+        for s in (-1, 1):
+            areas[s] += float(pts.w[pts.side == s].sum())
+        live = pts.side != 0
+        wmin = min(wmin, float(pts.w[live].min()))
+        assert np.all(np.isfinite(pts.w)) and np.all(np.isfinite(pts.x))
+    return areas, wmin
+
+
+def interface_points(mesh, geo, order=4):
+    segs = geo.segments()
+    return integration.segment_points(mesh.element, mesh.x[mesh.cell_nodes[segs.cells]], segs, order)
+
+
+def study(raw):
+    """Geometry of the SSNV509 circle on ``raw``: a dict of measured quantities."""
+    mesh = plex.load(raw)
+    geo = geometry.build(mesh, phi_ssnv509(mesh))
+    areas, wmin = side_areas(mesh, geo)
+    sp = interface_points(mesh, geo)
+    # sub-cell Jacobians at the TRIA6 check points (nodes + Gauss points)
+    det = subcell_jacobians(geo.subcells.nodes, TRI6.check_points)
+    live = geo.subcells.side != 0
+    return dict(mesh=mesh, geo=geo, areas=areas, wmin=wmin, pts=sp,
+                length=float(sp.w.sum()), nds=np.einsum("kq,kqi->i", sp.w, sp.normal),
+                det_min=float(det[live].min()), cells=len(mesh.cells),
+                cut=int(len(geo.subcells.cells)))
+
+
+def ssnv509b():
+    return read_mesh(MESHES / "ssnv509b.mmed")
+
+
+MESH_BUILDERS = {
+    "QUAD8 20x20": lambda: rectangle(20, 20),
+    "QUAD8 40x40": lambda: rectangle(40, 40),
+    "TRIA6 ssnv509b (800)": ssnv509b,
+}
+# area / length error bounds C h^4 (h = 0.5 or 0.25 m); measured values are 3-30 x smaller
+H = {"QUAD8 20x20": 0.5, "QUAD8 40x40": 0.25, "TRIA6 ssnv509b (800)": 0.5}
+
+
+@pytest.fixture(scope="module")
+def studies():
+    return {name: study(build()) for name, build in MESH_BUILDERS.items()}
+
+
+@pytest.mark.parametrize("name", list(MESH_BUILDERS))
+def test_ssnv509_areas_length_normal(studies, name):
+    st = studies[name]
+    minus, plus = exact_areas()
+    a = st["areas"]
+    h4 = H[name] ** 4
+    err_m, err_p = a[-1] - minus, a[1] - plus
+    err_l = st["length"] - LENGTH
+    print(f"\n{name}: {st['cells']} cells, {st['cut']} cut; area(-) {a[-1]:.15f} (err {err_m:+.3e}), "
+          f"area(+) {a[1]:.15f} (err {err_p:+.3e}), total - 100 = {a[-1] + a[1] - 100:+.1e}, "
+          f"length {st['length']:.15f} (err {err_l:+.3e}), int n ds = ({st['nds'][0]:+.2e}, "
+          f"{st['nds'][1]:.15f})")
+    assert abs(a[-1] + a[1] - 100.0) <= 1e-12
+    assert abs(err_m) <= 1e-4 * h4 and abs(err_p) <= 1e-4 * h4
+    assert abs(err_l) <= 1e-5 * h4
+    # int n ds = rot(A - C) = (0, -10), exact up to round-off (see the module docstring)
+    np.testing.assert_allclose(st["nds"], [0.0, -10.0], rtol=0, atol=1e-12)
+    # the normal is grad LN / |grad LN| (from - to +) at every interface point
+    x = st["pts"].x
+    g = np.stack([2 * (x[..., 0] - XC), 2 * (x[..., 1] - YC)], axis=-1)
+    g /= np.linalg.norm(g, axis=-1, keepdims=True)
+    cos = np.einsum("kqi,kqi->kq", g, st["pts"].normal)
+    assert cos.min() > 1 - 1e-6
+    # interface points lie on the circle (O(h^3) off it)
+    dist = np.abs(np.hypot(x[..., 0] - XC, x[..., 1] - YC) - R)
+    assert dist.max() <= 1e-3 * H[name] ** 3
+    assert np.all(np.isfinite(st["pts"].w)) and np.all(st["pts"].w > 0)
+    # the chain of segments starts and ends at A = (0, yA) and C = (10, yA)
+    mesh, segs = st["mesh"], st["geo"].segments()
+    ends = np.einsum("kpa,kai->kpi", mesh.element.shape(segs.nodes[:, :2]),
+                     mesh.x[mesh.cell_nodes[segs.cells]]).reshape(-1, 2)
+    ya = YC - math.sqrt(R2 - 25)
+    np.testing.assert_allclose(ends[np.argmin(ends[:, 0])], [0.0, ya], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(ends[np.argmax(ends[:, 0])], [10.0, ya], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", list(MESH_BUILDERS))
+def test_ssnv509_subcells_positive(studies, name):
+    """Every sub-cell has a positive Jacobian: at its check points and in its weights."""
+    st = studies[name]
+    geo = st["geo"]
+    assert st["cut"] > 0 and (geo.cell_side == 0).sum() == st["cut"]
+    assert st["det_min"] > 0
+    assert st["wmin"] > 0
+    # every cut cell has both sides
+    side = geo.subcells.side
+    assert np.all((side == -1).any(axis=1) & (side == 1).any(axis=1))
+    assert geo.readjustment.lifted_edges == 0 and geo.dropped == 0
+
+
+def _orders(h, e):
+    h, e = np.asarray(h), np.abs(np.asarray(e))
+    return np.log(e[:-1] / e[1:]) / np.log(h[:-1] / h[1:])
+
+
+SEQUENCES = {
+    "QUAD8 rectangles 20..160": [(10 / n, (lambda n=n: rectangle(n, n))) for n in (20, 40, 80, 160)],
+    "TRIA6 ssnv509b refined 0..3": [(0.5 / 2 ** k, (lambda k=k: refine_uniform(ssnv509b(), k)))
+                                    for k in range(4)],
+}
+
+
+@pytest.mark.parametrize("name", list(SEQUENCES))
+def test_ssnv509_convergence(name):
+    minus, plus = exact_areas()
+    rows = []
+    for h, build in SEQUENCES[name]:
+        st = study(build())
+        a = st["areas"]
+        assert abs(a[-1] + a[1] - 100.0) <= 1e-12
+        assert st["det_min"] > 0 and st["wmin"] > 0
+        np.testing.assert_allclose(st["nds"], [0.0, -10.0], rtol=0, atol=1e-12)
+        rows.append((h, st["cells"], a[-1] - minus, a[1] - plus, st["length"] - LENGTH,
+                     a[-1] + a[1] - 100.0, abs(st["nds"][1] + 10) + abs(st["nds"][0])))
+    h = [r[0] for r in rows]
+    oa = _orders(h, [r[2] for r in rows])
+    ol = _orders(h, [r[4] for r in rows])
+    print(f"\n{name}: area and length errors against the exact circle")
+    print(f"{'h':>8} {'cells':>6} {'area(-) err':>12} {'order':>6} {'area(+) err':>12} "
+          f"{'length err':>12} {'order':>6} {'total-100':>9} {'|nds err|':>9}")
+    for i, r in enumerate(rows):
+        o1 = f"{oa[i - 1]:6.2f}" if i else " " * 6
+        o2 = f"{ol[i - 1]:6.2f}" if i else " " * 6
+        print(f"{r[0]:8.5f} {r[1]:6d} {r[2]:+12.3e} {o1} {r[3]:+12.3e} {r[4]:+12.3e} {o2} "
+              f"{r[5]:+9.1e} {r[6]:9.1e}")
+    assert np.all(oa >= 3.0), oa
+    assert np.all(ol >= 3.0), ol
+
+
+# -- enrichment rule ---------------------------------------------------------------
+def test_enrichment_rule_ssnv509_quad8(studies):
+    """A node is enriched iff the part of its support on the side opposite to it has a
+    positive area (no node is dropped by the conditioning rule here); every node of a
+    cut cell is enriched; nodes far from the interface are not."""
+    st = studies["QUAD8 20x20"]
+    mesh, geo = st["mesh"], st["geo"]
+    n = len(mesh.x)
+    assert geo.dropped == 0
+    # opposite-side area of every node's support, from the quadrature weights
+    opp = np.zeros(n)
+    for pts in geometry.cell_points(mesh, geo, np.arange(len(mesh.cells))):
+        nodes = mesh.cell_nodes[pts.cells]                                     # (k, nn)
+        other = pts.side[:, :, None] != geo.node_side[nodes][:, None, :]        # (k, nq, nn)
+        np.add.at(opp, nodes, np.einsum("kq,kqa->ka", pts.w, other * (pts.side != 0)[..., None]))
+    expected = opp > 0
+    np.testing.assert_array_equal(geo.enriched, expected)
+    # node side: H(x_j) = +1 where LN >= 0
+    np.testing.assert_array_equal(geo.node_side, np.where(geo.phi >= 0, 1, -1))
+    # every node of a cut cell is enriched
+    cut_nodes = np.unique(mesh.cell_nodes[geo.cell_side == 0])
+    assert geo.enriched[cut_nodes].all()
+    # nodes farther than two cell diagonals from the circle are not
+    dist = np.abs(np.hypot(mesh.x[:, 0] - XC, mesh.x[:, 1] - YC) - R)
+    far = dist > 2 * 0.5 * math.sqrt(2)
+    assert far.sum() > 0.6 * n and not geo.enriched[far].any()
+    # support ratios: in (0, 1] for enriched nodes, 1 elsewhere
+    r = geo.ratio[geo.enriched]
+    assert np.all((r > 0) & (r <= 1)) and np.all(geo.ratio[~geo.enriched] == 1.0)
+    print(f"\nSSNV509 QUAD8 20x20: {int(geo.enriched.sum())} enriched nodes of {n} "
+          f"({len(cut_nodes)} nodes of {st['cut']} cut cells), min support ratio "
+          f"{r.min():.3e}, dropped {geo.dropped}")
