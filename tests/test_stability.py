@@ -1,0 +1,102 @@
+"""A stable multiplier space (issue 4): no null pivot, no oscillation, as the arc moves
+across the nodes.
+
+The SSNV509 circle is shifted upwards by 50 steps across one cell height, so that
+it passes through and very near the vertices and mid-nodes of the 20 x 20 QUAD8 and
+800 TRIA6 meshes.  With MUMPS null-pivot detection on (ICNTL(24) = 1) every
+factorisation reports INFOG(28) = 0, and LAGS_C along the interface does not
+oscillate: its second divided difference from point to point (a discrete
+d^2 LAGS_C / ds^2, the curvature an oscillation blows up like amplitude / h^2)
+stays of the order of the exact one, max |d^2 sigma_nn / ds^2| = 0.2 / R^2.
+"""
+import copy
+import dataclasses
+
+import numpy as np
+import pytest
+
+from conftest import CASES, MESHES
+from xfemcontact._petsc import PETSc
+from xfemcontact.case import load_case
+from xfemcontact.case.formula import compile_formula
+from xfemcontact.mesh.generate import rectangle
+from xfemcontact.mesh.read import read_mesh
+from xfemcontact.model import Model
+
+N_POSITIONS = 50
+
+
+@pytest.fixture
+def null_pivot_detection():
+    opts = PETSc.Options()
+    opts.setValue("mat_mumps_icntl_24", "1")
+    yield
+    opts.delValue("mat_mumps_icntl_24")
+
+
+def shifted(case, yc):
+    itf = dataclasses.replace(case.interface,
+                              level_set=compile_formula(f"(x-5)**2 + (y-{yc!r})**2 - 64.27"))
+    return dataclasses.replace(case, interface=itf)
+
+
+R = np.sqrt(64.27)
+MERGE = 0.01          # m (h / 50): interface points closer than this are one place
+EXACT_CURVATURE = 0.2 / R ** 2          # max |d^2 (-0.1 sin^2 t) / ds^2|, Pa/m^2
+
+
+def interface_errors(model, yc):
+    """Errors and second divided differences of LAGS_C along the arc, one value per point."""
+    v = model.interface_values()
+    t = np.arctan2(v["y"] - yc, v["x"] - 5.0)
+    err_c = v["LAGS_C"] + 0.1 * np.sin(t) ** 2
+    err_f = v["LAGS_F1"] - (v["x"] - 5.0) / (2.0 * (v["y"] - yc))
+    _, first = np.unique(np.round(t, 12), return_index=True)     # each point once, by angle
+    s, lam = _merge_close(R * t[first], v["LAGS_C"][first], MERGE)
+    slope = np.diff(lam) / np.diff(s)
+    curvature = 2.0 * np.diff(slope) / (s[2:] - s[:-2])
+    return err_c[first], err_f[first], curvature
+
+
+def _merge_close(s, values, gap):
+    """Average runs of abscissae ``s`` (sorted) closer than ``gap``."""
+    group = np.r_[0, np.cumsum(np.diff(s) > gap)]
+    n = group[-1] + 1
+    count = np.bincount(group, minlength=n)
+    return (np.bincount(group, weights=s, minlength=n) / count,
+            np.bincount(group, weights=values, minlength=n) / count)
+
+
+@pytest.mark.slow
+# QUAD8: the discrete curvature stays within twice the exact one (no oscillation).
+# TRIA6 (P1 multipliers): where the arc runs a few hundredths of h below a row of
+# vertices, LAGS_C wiggles locally (amplitude ~1e-4, discrete curvature up to
+# ~0.25 Pa/m^2 on this coarse mesh): a KNOWN LIMITATION (README), guarded here
+# against regression, not claimed as "no oscillation".
+@pytest.mark.parametrize("cell, mesh, tol_c, tol_f, osc_factor", [
+    ("QUAD8", lambda: rectangle(20, 20), 2e-5, 1e-4, 2.0),
+    ("TRIA6", lambda: read_mesh(MESHES / "ssnv509b.mmed"), 2e-4, 2e-3, 100.0),
+])
+def test_arc_sweep(null_pivot_detection, cell, mesh, tol_c, tol_f, osc_factor):
+    base = load_case(CASES / "ssnv509a.toml")
+    raw = mesh()
+    worst = {"err_c": 0.0, "err_f": 0.0, "osc": 0.0, "null": 0, "ties": 0}
+    for i in range(N_POSITIONS):
+        yc = 11.77 + 0.5 * i / N_POSITIONS
+        model = Model(shifted(base, yc), raw=copy.deepcopy(raw))
+        assert model.solve() > 0, f"no convergence at yc = {yc}"
+        info = model.solver_info()["mumps"]
+        err_c, err_f, curvature = interface_errors(model, yc)
+        worst["err_c"] = max(worst["err_c"], np.abs(err_c).max())
+        worst["err_f"] = max(worst["err_f"], np.abs(err_f).max())
+        worst["osc"] = max(worst["osc"], np.abs(curvature).max())
+        worst["null"] = max(worst["null"], info["null_pivots"])
+        worst["ties"] = max(worst["ties"], model.space.n_ties)
+        assert info["null_pivots"] == 0, f"MUMPS null pivots at yc = {yc}"
+    print(f"\n{cell}: {N_POSITIONS} positions, max error LAGS_C {worst['err_c']:.2e} "
+          f"LAGS_F1 {worst['err_f']:.2e}, largest second divided difference of LAGS_C "
+          f"{worst['osc']:.2e} Pa/m^2 (exact curvature at most {EXACT_CURVATURE:.2e}), "
+          f"INFOG(28) max {worst['null']}, ties {worst['ties']}")
+    assert worst["err_c"] < tol_c and worst["err_f"] < tol_f
+    # no node-to-node oscillation: the discrete curvature stays of the order of the exact one
+    assert worst["osc"] < osc_factor * EXACT_CURVATURE
