@@ -88,17 +88,30 @@ def test_slip_zone_matches_stick_prediction(tmp_path):
 
 
 def test_symbolic_factorisation_reused(tmp_path):
-    """One symbolic LU for the whole run, one numeric LU per Jacobian."""
-    out = tmp_path / "a"
-    p = run_cli(["run", CASES / "ssnv509a.toml", "-o", out, "-log_view"])
-    assert p.returncode == 0
-    counts = {}
-    for line in p.stdout.splitlines():
-        parts = line.split()
-        if parts and parts[0] in ("MatLUFactorSym", "MatLUFactorNum"):
-            counts[parts[0]] = int(parts[1])
-    assert counts["MatLUFactorSym"] == 1
-    assert counts["MatLUFactorNum"] == results(out)["linear_solver"]["jacobians"]
+    """One symbolic factorisation for the whole run, one numeric one per Jacobian
+    (default LDL^T, and LU)."""
+    for extra, sym, num in (((), "MatCholFctrSym", "MatCholFctrNum"),
+                            (("-pc_type", "lu"), "MatLUFactorSym", "MatLUFactorNum")):
+        out = tmp_path / sym
+        p = run_cli(["run", CASES / "ssnv509a.toml", "-o", out, "-log_view", *extra])
+        assert p.returncode == 0
+        counts = {}
+        for line in p.stdout.splitlines():
+            parts = line.split()
+            if parts and parts[0] in (sym, num):
+                counts[parts[0]] = int(parts[1])
+        assert counts[sym] == 1
+        assert counts[num] == results(out)["linear_solver"]["jacobians"]
+
+
+def test_traction_form_needs_one_factorisation(tmp_path):
+    """With the tangential traction as unknown, SSNV509's threshold loop does not refactor."""
+    out = tmp_path / "t"
+    p = run_cli(["run", CASES / "ssnv509a.toml", "-o", out, "-xfc_friction_unknown", "traction"])
+    assert p.returncode == 0, p.stdout + p.stderr
+    r = results(out)
+    assert r["linear_solver"]["jacobians"] == 1
+    assert all(t["ok"] for t in r["tests"])
 
 
 @pytest.mark.mpi

@@ -2,7 +2,6 @@
 import ast
 import functools
 import inspect
-import time
 
 import numpy as np
 import pytest
@@ -22,15 +21,12 @@ GRAMMAR_FUZZ = settings(FUZZ, max_examples=150)
 
 
 def refused(text, fragment, **kwargs):
-    """Compile ``text``, expect a FormulaError containing ``fragment``; return the time taken."""
-    start = time.perf_counter()
+    """Compile ``text``, expect a one-line FormulaError containing ``fragment``."""
     with pytest.raises(FormulaError) as info:
         compile_formula(text, **kwargs)
-    elapsed = time.perf_counter() - start
     message = str(info.value)
     assert fragment in message
     assert "\n" not in message
-    return elapsed
 
 
 # --- correctness ---------------------------------------------------------------------------
@@ -221,7 +217,7 @@ REFUSALS = [
 
 @pytest.mark.parametrize("text, fragment", REFUSALS, ids=[r[0][:30] for r in REFUSALS])
 def test_refusals(text, fragment):
-    assert refused(text, fragment) < 0.05
+    refused(text, fragment)
 
 
 def test_message_names_source_key_and_known_names():
@@ -248,8 +244,21 @@ HOSTILE = {
 
 
 @pytest.mark.parametrize("text, fragment", HOSTILE.values(), ids=HOSTILE.keys())
-def test_hostile_input_is_refused_fast(text, fragment):
-    assert refused(text, fragment) < 0.05
+def test_hostile_input_is_refused_fast(text, fragment, monkeypatch):
+    """Refused with bounded work (no wall-clock test): text over the length limit
+    never reaches Python's parser; shorter text is parsed at most once."""
+    import ast
+
+    from xfemcontact.case import formula as fm
+
+    calls = []
+    real = ast.parse
+    monkeypatch.setattr(fm.ast, "parse", lambda *a, **k: (calls.append(1), real(*a, **k))[1])
+    refused(text, fragment)
+    if len(text) > fm.MAX_LENGTH:
+        assert not calls
+    else:
+        assert len(calls) <= 1
 
 
 @pytest.mark.parametrize("value, fragment", [
@@ -303,10 +312,8 @@ def test_no_eval_exec_or_compile_in_module():
 ])
 def test_evaluation_errors_name_the_first_point(text, variables, point):
     f = compile_formula(text, source="case.toml", key="dirichlet[1].DY")
-    start = time.perf_counter()
     with pytest.raises(FormulaError) as info:
         f(**variables)
-    assert time.perf_counter() - start < 0.05
     prefix = "case.toml: dirichlet[1].DY: "
     assert str(info.value) == f"{prefix}division by zero or invalid value {point}"
 

@@ -161,7 +161,11 @@ class Model:
         self.interface = None
         if self.space is not None:
             c = self.case.contact
-            self.law = claw.Law(c.coef_cont, c.coef_frot, c.coulomb, c.friction)
+            unknown = PETSc.Options().getString("xfc_friction_unknown", c.friction_unknown).upper()
+            rho_T = max(c.coef_cont, c.coulomb * c.coef_frot * abs(c.seuil_init or 0.0))
+            self.law = claw.Law(c.coef_cont, c.coef_frot, c.coulomb, c.friction,
+                                unknown="traction" if unknown == "TRACTION" else "semi-multiplier",
+                                rho_T=rho_T)
             self.interface = InterfaceOperator(mesh, geo, layout, self.space, self.rep_index, self.law,
                                                self.segment_points, c.contact_init is not False,
                                                c.seuil_init)

@@ -62,7 +62,7 @@ def run(case_path, outdir=None, overwrite=False):
             samples.update(model.interface_samples() if hasattr(model, "interface_samples") else {})
             outcomes = checks.evaluate(case.tests, samples, case.reference, comm)
         with timing.phase("output"):
-            results.write_fields(folder, model, u, values)
+            results.write_outputs(folder, model, u, values, converged, reason, outcomes)
         timing.TIMINGS["total"] = time.perf_counter() - t0
         folder.write_json("results.json", results.summary(model, converged, reason, outcomes))
         folder.commit()

@@ -323,8 +323,9 @@ class _Expression:
             index = np.unravel_index(int(np.argmax(mask)), shape)
             point = ", ".join(f"{name}={np.broadcast_to(env[name], shape)[index]:.10g}"
                               for name in self._variables if name in env)
+            # at the points of one process: the other processes may not fail
             raise FormulaError(f"{self._prefix}: division by zero or invalid value "
-                               f"at {point}") from None
+                               f"at {point}", collective=False) from None
 
 
 class Formula(_Expression):

@@ -83,6 +83,7 @@ class Contact:
     resi_frot: float
     ordre_int: int
     algo_lagr: str = "AUTO"           # AUTO (= VERSION3) | VERSION3 | NON
+    friction_unknown: str = "LAGS_F1"  # LAGS_F1 (semi-multiplier) | TRACTION
 
 
 @dataclass(frozen=True)

@@ -223,6 +223,10 @@ CONTACT = Table({
     "algo_lagr": Key("choice", "multiplier space: AUTO = VERSION3 (unique multipliers), "
                      "NON = raw vertex space (singular, for comparison)", default="AUTO",
                      choices=("AUTO", "VERSION3", "NON")),
+    "friction_unknown": Key("choice", "friction dof: LAGS_F1 = code_aster's semi-multiplier (exact "
+                            "|LAGS_F1| = 1 in slip), TRACTION = tangential traction (stick tangent "
+                            "independent of the threshold: fewer factorisations)", default="LAGS_F1",
+                            choices=("LAGS_F1", "TRACTION")),
 }, doc="DEFI_CONTACT: contact and friction settings", rules=(
     When("frottement", ("COULOMB",), require=("coulomb",),
          hint="give the friction coefficient, 0 for none"),

@@ -20,6 +20,17 @@ Weak form per unit length (rho_n = COEF_CONT in Pa/m, rho_t = COEF_FROT in
 
 At convergence lam = sigma_nn and mu s Lam = sigma_nt: LAGS_F1 =
 sigma_nt / (mu sigma_nn), |LAGS_F1| <= 1, = 1 in slip.
+
+Traction form (option ``friction_unknown = "TRACTION"``): the friction dof holds
+the tangential traction T = mu s Lam (Pa) instead of Lam, with the trial
+traction ``T + rho_T ut`` projected on [-mu |s|, mu |s|] and a fixed
+augmentation ``rho_T = max(COEF_CONT, mu COEF_FROT |SEUIL_INIT|)`` (Pa/m).  It is
+the same law -- code_aster's trial value times mu s -- but the stick tangent no
+longer depends on the threshold s: when the threshold loop updates s and every
+point sticks, the matrix is unchanged and the converged solution stays
+converged (SSNV509: one factorisation instead of two).  LAGS_F1 is reported as
+T / (mu LAGS_C) at each point, which in slip zones is 1 only up to the
+discretisation error (the default form gives exactly 1 there).
 """
 from dataclasses import dataclass
 
@@ -35,6 +46,8 @@ class Law:
     coef_frot: float       # rho_t, 1/m
     mu: float              # Coulomb coefficient (0: frictionless)
     friction: bool
+    unknown: str = "semi-multiplier"   # "semi-multiplier" (Lam, code_aster) or "traction" (T, Pa)
+    rho_T: float = 1.0     # traction form: fixed augmentation, Pa/m
 
 
 def point_terms(law, chi, s, g, ut, lam, Lam):
@@ -57,6 +70,8 @@ def point_terms(law, chi, s, g, ut, lam, Lam):
     }
     musig = mu * s
     active = on & law.friction & (np.abs(musig) > 0)
+    if law.unknown == "traction":
+        return _traction_terms(law, t, active, musig, ut, Lam)
     gt = Lam - rho_t * ut
     stick = np.abs(gt) <= 1.0 + STICK_TOL
     p = np.where(stick, gt, np.sign(gt))
@@ -68,6 +83,32 @@ def point_terms(law, chi, s, g, ut, lam, Lam):
     t["LL"] = np.where(active, (musig / rho_t) * (1.0 - kn), 1.0)
     t["slip"] = active & ~stick
     return t
+
+
+def _traction_terms(law, t, active, musig, ut, T):
+    """Friction terms with the tangential traction T (Pa) as unknown."""
+    rho = law.rho_T
+    bound = np.abs(musig)
+    trial = T + rho * ut
+    stick = np.abs(trial) <= bound * (1.0 + STICK_TOL)
+    P = np.where(stick, trial, bound * np.sign(trial))
+    kn = np.where(stick, 1.0, 0.0)
+    t["rt"] = np.where(active, P, 0.0)
+    t["rL"] = np.where(active, -(T - P) / rho, -T / rho)
+    t["tt"] = np.where(active, rho * kn, 0.0)
+    t["tL"] = np.where(active, kn, 0.0)
+    t["LL"] = np.where(active, -(1.0 - kn) / rho, -1.0 / rho)
+    t["slip"] = active & ~stick
+    return t
+
+
+def semi_multiplier(law, s, F):
+    """LAGS_F1 from the friction dof values ``F`` at points with thresholds ``s``."""
+    if law.unknown != "traction":
+        return F
+    musig = law.mu * s
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(np.abs(musig) > 0, F / musig, 0.0)
 
 
 def update_status(law, chi, g, lam, gap_tol=1e-16, release_tol=2.2e-16):

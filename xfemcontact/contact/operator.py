@@ -181,8 +181,10 @@ class InterfaceOperator:
             q = 0 if end == 0 else -1            # nearest Gauss point for the statuses
             out["x"].append(pos[:, 0])
             out["y"].append(pos[:, 1])
-            out["LAGS_C"].append(np.einsum("ka,ka->k", phi, ve[:, 2 * nn:2 * nn + nv]))
-            out["LAGS_F1"].append(np.einsum("ka,ka->k", phi, ve[:, 2 * nn + nv:]))
+            lam_p = np.einsum("ka,ka->k", phi, ve[:, 2 * nn:2 * nn + nv])
+            out["LAGS_C"].append(lam_p)
+            out["LAGS_F1"].append(claw.semi_multiplier(self.law, claw.threshold(lam_p),
+                                                       np.einsum("ka,ka->k", phi, ve[:, 2 * nn + nv:])))
             out["gap"].append(jx * n[:, 0] + jy * n[:, 1])
             out["slip"].append(jx * tau[:, 0] + jy * tau[:, 1])
             out["contact"].append(self.chi[:, q].astype(float))

@@ -5,13 +5,70 @@ success it replaces the target in one rename (an existing target is only
 replaced with ``overwrite``).  On failure or interruption the temporary folder
 is removed and the previous results, if any, are left untouched.  Only rank 0
 touches the file system.
+
+Interruptions: :func:`handle_signals` turns SIGINT and SIGTERM into
+:class:`~xfemcontact.errors.Interrupted`, raised in the main thread; the run
+aborts its folder on the way up (:meth:`OutputFolder.abort`) and
+:meth:`OutputFolder.outcome` says what is left.  A signal received while the
+finished folder replaces the target (:meth:`OutputFolder.commit`, two renames)
+is held back until both renames are done, so that the target is always either
+the complete previous results or the complete new ones.
 """
+import contextlib
 import json
 import os
 import shutil
+import signal
 from pathlib import Path
 
-from xfemcontact.errors import CaseError
+from xfemcontact.errors import CaseError, Interrupted
+
+#: the signals :func:`handle_signals` catches
+SIGNALS = (signal.SIGINT, signal.SIGTERM)
+_held = []           # signals received inside a critical section
+_critical = 0        # depth of critical sections
+_received = []       # every signal received since handle_signals()
+
+
+def _handler(signum, frame):
+    if _received:            # a second signal while stopping: stopping already
+        return
+    _received.append(signum)
+    if _critical:
+        _held.append(signum)
+        return
+    raise Interrupted(signum)
+
+
+def handle_signals():
+    """Install the SIGINT/SIGTERM handlers (main thread only); returns the previous ones."""
+    _received.clear()
+    _held.clear()
+    previous = {}
+    for sig in SIGNALS:
+        try:
+            previous[sig] = signal.signal(sig, _handler)
+        except ValueError:   # not the main thread: leave the defaults
+            pass
+    return previous
+
+
+def restore_signals(previous):
+    for sig, handler in previous.items():
+        signal.signal(sig, handler)
+
+
+@contextlib.contextmanager
+def critical():
+    """Hold SIGINT/SIGTERM back inside the block; raise Interrupted after it if one came."""
+    global _critical
+    _critical += 1
+    try:
+        yield
+    finally:
+        _critical -= 1
+    if not _critical and _held:
+        raise Interrupted(_held.pop())
 
 
 class OutputFolder:
@@ -21,6 +78,7 @@ class OutputFolder:
         self.rank = comm.rank if comm is not None else 0
         self.tmp = self.path.parent / f".{self.path.name}.tmp-{os.getpid()}"
         self._made = []          # folders we created (removed again on abort)
+        self.committed = False
         problem = self._problem(overwrite) if self.rank == 0 else None
         if comm is not None and comm.size > 1:
             problem = comm.bcast(problem, root=0)
@@ -38,12 +96,13 @@ class OutputFolder:
     def _start(self):
         if self._made:
             return
-        missing = [p for p in reversed(self.path.parents) if not p.exists()]
-        for p in missing:
-            p.mkdir()
-        shutil.rmtree(self.tmp, ignore_errors=True)
-        self.tmp.mkdir()
-        self._made = missing + [self.tmp]
+        with critical():         # what we create is recorded before a signal can stop us
+            missing = [p for p in reversed(self.path.parents) if not p.exists()]
+            for p in missing:
+                p.mkdir()
+            shutil.rmtree(self.tmp, ignore_errors=True)
+            self.tmp.mkdir()
+            self._made = missing + [self.tmp]
 
     def file(self, name):
         """Path of ``name`` inside the folder being written (created on first use)."""
@@ -59,27 +118,41 @@ class OutputFolder:
             self.file(name).write_text(json.dumps(obj, indent=1, default=_jsonable) + "\n", encoding="utf-8")
 
     def commit(self):
-        """Replace the target by the finished folder."""
+        """Replace the target by the finished folder (signals held back meanwhile)."""
         if self.rank != 0:
+            self.committed = True
             return
         self._start()
         old = None
-        if self.path.exists():
-            old = self.path.parent / f".{self.path.name}.old-{os.getpid()}"
-            self.path.rename(old)
-        self.tmp.rename(self.path)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+        with critical():
+            if self.path.exists():
+                old = self.path.parent / f".{self.path.name}.old-{os.getpid()}"
+                self.path.rename(old)
+            self.tmp.rename(self.path)
+            self.committed = True
+            if old is not None:
+                shutil.rmtree(old, ignore_errors=True)
+
+    def outcome(self):
+        """What the target holds now, in words (for the message of an interrupted run)."""
+        if self.committed:
+            return f"complete results in {self.path} (the run had finished)"
+        if self.path.is_dir():
+            return f"previous results in {self.path} kept"
+        return "no results written"
 
     def abort(self):
-        if self.rank != 0 or not self._made:
+        """Remove the temporary folder (and the parents we made); the target is untouched."""
+        if self.rank != 0 or not self._made or self.committed:
             return
-        shutil.rmtree(self.tmp, ignore_errors=True)
-        for p in reversed(self._made[:-1]):      # parents we made, if still empty
-            try:
-                p.rmdir()
-            except OSError:
-                break
+        with critical():
+            shutil.rmtree(self.tmp, ignore_errors=True)
+            for p in reversed(self._made[:-1]):      # parents we made, if still empty
+                try:
+                    p.rmdir()
+                except OSError:
+                    break
+            self._made = []
 
 
 def _jsonable(obj):

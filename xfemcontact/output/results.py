@@ -74,32 +74,57 @@ def interface_table(model):
 
 
 def write_fields(folder, model, u, values):
-    """Displacements at nodes and mean stresses per cell, as XDMF (and VTU if asked)."""
-    mesh = model.mesh
-    sig, eps = fields.cell_means(mesh, values)
-    nodes = gather.gather_nodes(mesh, u=u)
-    cells = gather.gather_cells(mesh, sig=sig, eps=eps)
-    if nodes is None:
-        return
+    """The post-processing mesh and its fields (see :mod:`xfemcontact.post.postmesh`) as
+    fields.xdmf + fields.h5 (and fields.vtu, fields.med if asked).  Collective.
+
+    ``u`` is not used (the post mesh evaluates each side's displacement itself);
+    ``values``: stresses at quadrature points.  Returns the PostMesh and the file
+    names written on rank 0, (None, []) elsewhere.
+    """
+    from xfemcontact.post import postmesh
+
+    post = postmesh.build(model, values)
+    if post is None:
+        return None, []
     import meshio
 
-    ids, x, nd = nodes
-    _, conn, cd = cells
-    index = np.full(int(ids.max()) + 1, -1, dtype=np.int64)
-    index[ids] = np.arange(len(ids))
-    cell_data = {
-        "SIXX": [cd["sig"][:, 0]], "SIYY": [cd["sig"][:, 1]], "SIXY": [cd["sig"][:, 2]],
-        "EPXX": [cd["eps"][:, 0]], "EPYY": [cd["eps"][:, 1]], "EPXY": [0.5 * cd["eps"][:, 2]],
-    }
-    m = meshio.Mesh(np.c_[x, np.zeros(len(x))], [(MESHIO_CELL[mesh.cell_type], index[conn])],
-                    point_data={"DX": nd["u"][:, 0], "DY": nd["u"][:, 1],
-                                "displacement": np.c_[nd["u"], np.zeros(len(x))]},
-                    cell_data=cell_data)
     formats = model.case.output.formats
+    written = []
     if "xdmf" in formats:
-        _write_xdmf(folder, "fields.xdmf", m)
+        _write_xdmf(folder, "fields.xdmf", post.to_meshio())
+        written += ["fields.xdmf", "fields.h5"]
     if "vtu" in formats:
-        meshio.write(folder.file("fields.vtu"), m, file_format="vtu")
+        meshio.write(folder.file("fields.vtu"), post.to_meshio(), file_format="vtu")
+        written.append("fields.vtu")
+    if "med" in formats:
+        meshio.write(folder.file("fields.med"), post.to_meshio(dim=2), file_format="med")
+        written.append("fields.med")
+    return post, written
+
+
+def write_outputs(folder, model, u, values, converged, reason, outcomes):
+    """Every result file but results.json: fields, interface.csv, plots, report.md.
+    Collective; only rank 0 writes."""
+    from xfemcontact.output import interface_csv, report
+    from xfemcontact.post import plots
+
+    post, files = write_fields(folder, model, u, values)
+    table = interface_csv.build(model)
+    summary_now = summary(model, converged, reason, outcomes)
+    if model.comm.rank != 0:
+        return
+    warnings = []
+    if table is not None:
+        files += interface_csv.write(folder, table)
+        warnings += table.warnings
+    if model.case.output.plots:
+        case = model.case
+        criterion = case.newton.resi_glob_rela * model.load_norm if model.snes else None
+        resi_frot = getattr(case.contact, "resi_frot", None) if model.loops else None
+        files += plots.write(folder, case.title, post=post, table=table,
+                             history=summary_now["residual_history"], iterations=summary_now["iterations"],
+                             criterion=criterion, resi_frot=resi_frot)
+    report.write(folder, summary_now, files, case_source=model.case.source, warnings=warnings)
 
 
 def _write_xdmf(folder, name, m):
@@ -111,6 +136,6 @@ def _write_xdmf(folder, name, m):
     cwd = os.getcwd()
     os.chdir(folder.file("."))
     try:
-        meshio.write(name, m, file_format="xdmf")
+        meshio.xdmf.write(name, m, data_format="HDF", compression=None)
     finally:
         os.chdir(cwd)

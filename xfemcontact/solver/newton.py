@@ -1,7 +1,8 @@
 """Newton's method as a PETSc SNES, configured from the options database.
 
 Defaults (each overridable on the command line, e.g. ``-pc_type cholesky``):
-``-ksp_type preonly -pc_type lu -pc_factor_mat_solver_type mumps``, full Newton
+``-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps`` (MUMPS LDL^T
+of the symmetric indefinite tangent; ``-pc_type lu`` for LU), full Newton
 steps (``-snes_linesearch_type basic``, as code_aster), MUMPS null-pivot
 detection off (``-mat_mumps_icntl_24 0``, as the user asked).
 
@@ -15,7 +16,7 @@ from xfemcontact._petsc import PETSc
 
 DEFAULT_OPTIONS = {
     "ksp_type": "preonly",
-    "pc_type": "lu",
+    "pc_type": "cholesky",      # MUMPS LDL^T: the STANDARD contact tangent is symmetric
     "pc_factor_mat_solver_type": "mumps",
     "snes_linesearch_type": "basic",
     "mat_mumps_icntl_24": "0",

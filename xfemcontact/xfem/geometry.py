@@ -129,6 +129,7 @@ def support_ratio(mesh, geo):
         np.add.at(opp, nodes, g2o)
     # cells of the support outside the enriched set lie wholly on the node's side
     plain = geo.plain_cells(mesh)
+    plain = plain[geo.enriched[mesh.cell_nodes[plain]].any(axis=1)]
     if len(plain):
         pts = integration.cell_points(mesh.element, mesh.x[mesh.cell_nodes[plain]], plain,
                                       geo.cell_side[plain])

@@ -31,7 +31,17 @@ class CellPoints:
 
 
 def _parent_maps(el, xc, xi):
-    """Physical points, gradients and det J of parents ``xc (k, nn, 2)`` at ``xi (k, nq, 2)``."""
+    """Physical points, gradients and det J of parents ``xc (k, nn, 2)`` at ``xi``.
+
+    ``xi``: ``(k, nq, 2)`` per cell, or ``(nq, 2)`` the same for every cell (the
+    shape functions are then evaluated once).
+    """
+    if xi.ndim == 2:
+        N0, dN0 = el.shape(xi), el.dshape(xi)                      # (nq, nn), (nq, nn, 2)
+        x = np.einsum("qa,kai->kqi", N0, xc)
+        J = np.einsum("qaj,kai->kqij", dN0, xc)
+        dNdx, det = physical_gradients(np.broadcast_to(dN0, J.shape[:2] + dN0.shape[1:]), J)
+        return np.broadcast_to(N0, (len(xc),) + N0.shape), x, dNdx, det
     N = el.shape(xi)
     dN = el.dshape(xi)
     x = np.einsum("kqa,kai->kqi", N, xc)
@@ -62,8 +72,8 @@ def _centre(el):
 def cell_points(el, xc, cells, side, degree=4):
     """Standard quadrature of whole (uncut) cells, all on side ``side (k,)``."""
     q, wq = el.quadrature(degree)
+    N, x, dNdx, det = _parent_maps(el, xc, q)
     xi = np.broadcast_to(q, (len(cells),) + q.shape)
-    N, x, dNdx, det = _parent_maps(el, xc, xi)
     return CellPoints(cells, xi, x, wq[None] * det, np.repeat(side[:, None], len(wq), axis=1), dNdx, N)
 
 

@@ -1,0 +1,213 @@
+"""interface.csv: the interface point values along each interface curve.
+
+Rows are the ends of the interface segments (the points where the interface
+crosses cell edges, code_aster's NFISSU points), one row per point and cell
+(the ``cell`` column: a point shared by two cells has both cells' values).
+The segments are chained into curves (open, boundary to boundary, or closed)
+and walked with the LN < 0 side on the left -- for SSNV509 from A (x = 0) to
+C (x = 10), along code_aster's tangent.  The curvilinear abscissa ``s`` (m) is
+the integral of the length along the quadratic segments (the sum of their
+Gauss weights), so the last ``s`` of a curve is its length.  A closed curve
+starts at its point of least x (then y); curves are numbered in the same way.
+
+Columns: curve, s (m), x, y (m), cell (input cell index), LAGS_C (Pa),
+LAGS_F1 (-), gap, slip (m, normal and tangential jump), contact (1/0),
+sliding (1/0); and ``<field>_ref``, ``<field>_err`` (computed - reference)
+for each of LAGS_C, LAGS_F1, gap, slip with a ``[reference]`` formula.
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from xfemcontact.fem.elements import Seg3
+
+COLUMNS = ("curve", "s", "x", "y", "cell", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding")
+REFERENCE_FIELDS = ("LAGS_C", "LAGS_F1", "gap", "slip")
+INTEGER_COLUMNS = ("curve", "cell", "contact", "sliding")
+#: points per segment on the dense polylines drawn in the plots
+DENSE = 9
+
+
+@dataclass
+class InterfaceTable:
+    """The interface table of the whole model (rank 0)."""
+
+    columns: dict                 # name -> (rows,) in file order
+    curves: list                  # per curve: {"x", "y", "s" (m), "<field>_ref"}: dense polylines
+    length: float                 # total interface length, m
+    warnings: list = field(default_factory=list)
+
+
+def build(model):
+    """The InterfaceTable on rank 0 (None elsewhere, or without contact).  Collective."""
+    v = model.interface_values()
+    if v is None:
+        return None
+    op, mesh = model.interface, model.mesh
+    k = len(op.segments)
+    ends = {key: np.asarray(a).reshape(2, k).T for key, a in v.items()}       # (k, 2): P1, P2
+    seg = {"cell": mesh.cell_ids[op.segments.cells], "length": op.pts.w.sum(axis=1),
+           "xc": mesh.x[mesh.cell_nodes[op.segments.cells]], "nodes": op.segments.nodes}
+    parts = model.comm.tompi4py().gather((ends, seg), root=0)
+    if parts is None:
+        return None
+    ends = {key: np.concatenate([p[0][key] for p in parts]) for key in parts[0][0]}
+    seg = {key: np.concatenate([p[1][key] for p in parts]) for key in parts[0][1]}
+    order = np.argsort(seg["cell"], kind="stable")
+    ends = {key: a[order] for key, a in ends.items()}
+    seg = {key: a[order] for key, a in seg.items()}
+    return tabulate(ends, seg, mesh.element, model.case.reference)
+
+
+def tabulate(ends, seg, el, reference):
+    """Chain the segments and lay out the rows.
+
+    ``ends``: point values ``(K, 2)`` at (P1, P2) of every segment (see
+    ``InterfaceOperator.point_values``); ``seg``: ``cell (K,)``, ``length (K,)``
+    (m), ``xc (K, nn, 2)`` parent coordinates, ``nodes (K, 3, 2)`` segment
+    reference nodes; ``reference``: {field: Formula}.
+    """
+    K = len(seg["cell"])
+    # walk from P2 to P1: the LN < 0 side on the left
+    start = np.c_[ends["x"][:, 1], ends["y"][:, 1]]
+    stop = np.c_[ends["x"][:, 0], ends["y"][:, 0]]
+    curve, pos = chain(start, stop)
+    order = np.lexsort((pos, curve))
+    L = seg["length"][order]
+    cum = np.cumsum(L)
+    first = np.r_[True, curve[order][1:] != curve[order][:-1]]
+    base = np.maximum.accumulate(np.where(first, cum - L, 0.0))               # curve start offsets
+    s1 = cum - base
+    s0 = np.where(first, 0.0, np.r_[0.0, s1[:-1]])                           # exactly the previous end
+    cols = {"curve": np.repeat(curve[order], 2), "s": np.c_[s0, s1].ravel()}
+    for key in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding"):
+        cols[key] = ends[key][order][:, ::-1].ravel()                       # start (P2), stop (P1)
+    cols["cell"] = np.repeat(seg["cell"][order], 2)
+    cols = {c: cols[c] for c in COLUMNS}
+    curves = dense_curves(el, {k: a[order] for k, a in seg.items()}, curve[order], s0)
+    table = InterfaceTable(cols, curves, float(L.sum()))
+    add_reference(table, reference)
+    return table
+
+
+def chain(start, stop):
+    """Order oriented segments ``start -> stop`` ``(K, 2)`` into curves.
+
+    Points closer than the merge tolerance are one point.  Returns ``curve
+    (K,)`` (numbered by the (x, y) of each curve's first point) and ``pos (K,)``
+    (position of the segment along its curve), by pointer jumping.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from xfemcontact.post.postmesh import merge_points
+
+    K = len(start)
+    if K == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    lab = merge_points(np.r_[start, stop])
+    a, b = lab[:K], lab[K:]
+    idx = np.arange(K)
+    by_start = np.full(lab.max() + 1, -1)
+    by_start[a] = idx
+    by_stop = np.full(lab.max() + 1, -1)
+    by_stop[b] = idx
+    prv = by_stop[a]
+    nxt = by_start[b]
+    # closed curves have no head: cut each at its segment of least start (x, y)
+    live = nxt >= 0
+    g = coo_matrix((np.ones(live.sum()), (idx[live], nxt[live])), shape=(K, K))
+    ncomp, comp = connected_components(g, directed=False)
+    has_head = np.zeros(ncomp, bool)
+    has_head[comp[prv < 0]] = True
+    rank = np.lexsort((start[:, 1], start[:, 0]))
+    closed = ~has_head[comp[rank]]
+    cand = rank[closed]
+    _, firsts = np.unique(comp[cand], return_index=True)
+    heads = cand[firsts]
+    prv[heads] = -1
+    d, head = _list_rank(prv, idx)
+    hr = np.unique(head)
+    hrank = hr[np.lexsort((start[hr, 1], start[hr, 0]))]
+    curve_of_head = np.empty(K, np.int64)
+    curve_of_head[hrank] = np.arange(len(hrank))
+    return curve_of_head[head], d
+
+
+def _list_rank(prv, idx):
+    """Distance of every list element to its head, and the head (pointer jumping:
+    log K vectorised steps).  ``prv``: predecessor, -1 at heads."""
+    p = np.where(prv >= 0, prv, idx)
+    d = (prv >= 0).astype(np.int64)            # heads: 0, and they point to themselves
+    while True:
+        pp = p[p]
+        if np.array_equal(pp, p):
+            return d, p
+        d = d + d[p]
+        p = pp
+
+
+def dense_curves(el, seg, curve, s0, n=DENSE):
+    """Dense polylines ``{"x", "y", "s"}`` of every curve (segments in curve order)."""
+    t = np.linspace(1.0, -1.0, n)                                             # walk P2 -> P1
+    xi = np.einsum("pa,kai->kpi", Seg3.shape(t), seg["nodes"])
+    x = np.einsum("kpa,kai->kpi", el.shape(xi), seg["xc"])
+    # arc length of each sub-interval (4-point Gauss-Legendre), scaled to the segment length
+    g, wg = np.polynomial.legendre.leggauss(4)
+    ta, tb = t[:-1], t[1:]
+    tq = 0.5 * (ta + tb)[:, None] + 0.5 * (tb - ta)[:, None] * g[None, :]      # (n-1, 4)
+    xq = np.einsum("pqa,kai->kpqi", Seg3.shape(tq), seg["nodes"])
+    dxq = np.einsum("pqa,kai->kpqi", Seg3.dshape(tq), seg["nodes"])
+    J = np.einsum("kpqaj,kai->kpqij", el.dshape(xq), seg["xc"])
+    speed = np.linalg.norm(np.einsum("kpqij,kpqj->kpqi", J, dxq), axis=-1)
+    sub = np.einsum("kpq,q->kp", speed, wg) * 0.5 * np.abs(tb - ta)[None, :]
+    sub *= (seg["length"] / np.maximum(sub.sum(axis=1), 1e-300))[:, None]
+    s = s0[:, None] + np.c_[np.zeros(len(sub)), np.cumsum(sub, axis=1)]
+    out = []
+    for c in np.unique(curve):
+        rows = np.nonzero(curve == c)[0]
+        keep = np.ones((len(rows), n), bool)
+        keep[1:, 0] = False                                                   # shared end points
+        out.append({"x": x[rows, :, 0][keep], "y": x[rows, :, 1][keep], "s": s[rows][keep]})
+    return out
+
+
+def add_reference(table, reference):
+    """``<field>_ref`` and ``<field>_err`` columns for the fields with a formula."""
+    for f in REFERENCE_FIELDS:
+        formula = reference.get(f) if reference else None
+        if formula is None:
+            continue
+        try:
+            ref = _evaluate(formula, table.columns["x"], table.columns["y"])
+            dense = [_evaluate(formula, c["x"], c["y"]) for c in table.curves]
+        except Exception as exc:           # a formula invalid somewhere on the interface
+            table.warnings.append(f"reference.{f}: not evaluated on the interface ({exc})")
+            continue
+        table.columns[f + "_ref"] = ref
+        table.columns[f + "_err"] = table.columns[f] - ref
+        for c, d in zip(table.curves, dense):
+            c[f + "_ref"] = d
+
+
+def _evaluate(formula, x, y):
+    return np.broadcast_to(np.asarray(formula(x=x, y=y), dtype=float), np.shape(x)).copy()
+
+
+# -- file ---------------------------------------------------------------------------
+def write(folder, table, name="interface.csv"):
+    """Write ``table`` (rank 0); returns ``[name]``."""
+    cols = list(table.columns)
+    data = np.column_stack([np.asarray(table.columns[c], dtype=float) for c in cols])
+    fmt = ["%d" if c in INTEGER_COLUMNS else "%.17g" for c in cols]
+    np.savetxt(folder.file(name), data, fmt=fmt, delimiter=",", header=",".join(cols), comments="")
+    return [name]
+
+
+def read(path):
+    """The columns of an interface.csv: {name: array} (integer columns as int)."""
+    with open(path, encoding="utf-8") as f:
+        names = f.readline().strip().split(",")
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return {n: (data[:, i].astype(np.int64) if n in INTEGER_COLUMNS else data[:, i])
+            for i, n in enumerate(names)}

@@ -1,0 +1,286 @@
+"""The post-processing mesh, like code_aster's POST_MAIL_XFEM + POST_CHAM_XFEM.
+
+* uncut cells are kept as they are (QUAD8 or TRIA6);
+* every cut cell is replaced by its 6-node sub-triangles (:mod:`xfemcontact.xfem.cut`),
+  whose physical nodes are the parent map of their reference nodes;
+* a point shared by cells of both sides (a point of the interface: where it
+  crosses cell edges, the segment mid-points, mesh nodes with LN = 0) is
+  duplicated, one copy per side, so the displacement jump shows.
+
+Point fields: DX, DY (m, the displacement of the point's own side, Heaviside
+part included), ``displacement`` (DX, DY, 0) for ParaView's *Warp By Vector*,
+LAGS_C (Pa) and LAGS_F1 (-) at interface points (0 elsewhere), the contact
+(1 contact / 0 open) and sliding (1 slip / 0 stick) statuses of the nearest
+interface Gauss point (0 elsewhere), and NFISSU: -1 on the copies of the
+LN < 0 side (code_aster's "NM" nodes), +1 on those of the LN > 0 side ("NP"),
+0 off the interface.
+
+Cell fields: SIXX, SIYY, SIXY (Pa) and EPXX, EPYY, EPXY (tensor shear strain)
+averaged over the cell or sub-cell, ``side`` (-1/+1; 0 without interface),
+``cell`` (the input cell index) and ``subcell`` (index of the sub-triangle in
+its parent, -1 for uncut cells).
+
+Every process computes its own cells; rank 0 gathers them and numbers cells by
+(block, input cell, sub-cell) and points by first use, so the files do not
+depend on the number of processes.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+from xfemcontact.assembly import bulk
+from xfemcontact.assembly.system import heaviside_weights
+from xfemcontact.fem import elasticity
+from xfemcontact.fem.elements import Seg3, element
+from xfemcontact.post import fields
+from xfemcontact.xfem import geometry as xgeo
+
+MESHIO_CELL = {"QUAD8": "quad8", "TRIA6": "triangle6"}
+#: interface points of a cut-cell segment: its ends, mid-point and quarter points
+SEGMENT_POINTS = np.array([-1.0, -0.5, 0.0, 0.5, 1.0])
+#: points closer than this fraction of the mesh's bounding-box diagonal are one point
+MERGE_TOL = 1e-11
+#: interface samples farther than this (same unit) from every interface point are not post-mesh points
+SAMPLE_TOL = 1e-9
+POINT_FIELDS = ("DX", "DY", "LAGS_C", "LAGS_F1", "contact", "sliding", "NFISSU")
+CELL_FIELDS = ("SIXX", "SIYY", "SIXY", "EPXX", "EPYY", "EPXY", "side", "cell", "subcell")
+
+
+@dataclass
+class PostMesh:
+    """The post-processing mesh of the whole model (rank 0)."""
+
+    points: np.ndarray      # (np, 2) m
+    blocks: list            # [(meshio cell type, connectivity (k, nn))], quad8 before triangle6
+    point_data: dict        # name -> (np,)
+    cell_data: dict         # name -> [(k,) per block]
+
+    def to_meshio(self, dim=3):
+        """A meshio.Mesh (points padded to ``dim`` coordinates)."""
+        import meshio
+
+        pts = self.points if dim == 2 else np.c_[self.points, np.zeros(len(self.points))]
+        pd = dict(self.point_data)
+        if dim == 3:
+            pd["displacement"] = np.c_[pd["DX"], pd["DY"], np.zeros(len(self.points))]
+        return meshio.Mesh(pts, [(t, c) for t, c in self.blocks], point_data=pd,
+                           cell_data={k: list(v) for k, v in self.cell_data.items()})
+
+
+# -- one process's cells ---------------------------------------------------------
+def _pieces(model, values, xl):
+    """The post cells of this process, as padded arrays.
+
+    Returns a dict: ``cell (m,)`` input ids, ``sub (m,)`` sub-cell index (-1
+    uncut), ``nn (m,)`` node count, ``x (m, 8, 2)`` node coordinates (m),
+    ``u (m, 8, 2)`` displacements (m), ``side (m,)``, ``sig``, ``eps (m, 3)``.
+    """
+    mesh, geo, layout = model.mesh, model.geo, model.layout
+    el = mesh.element
+    nc = len(mesh.cells)
+    cut = geo.cell_side == 0 if geo is not None else np.zeros(nc, bool)
+    uncut = np.nonzero(~cut)[0]
+    side_u = geo.cell_side[uncut] if geo is not None else np.zeros(len(uncut), np.int64)
+    sig, eps = fields.cell_means(mesh, values)
+    xi_u = np.broadcast_to(el.ref_nodes, (len(uncut),) + el.ref_nodes.shape)
+    parts = [dict(cell=mesh.cell_ids[uncut], sub=np.full(len(uncut), -1), nn=np.full(len(uncut), el.nn),
+                  x=mesh.x[mesh.cell_nodes[uncut]], u=displacement_at(model, xl, uncut, xi_u, side_u),
+                  side=side_u, sig=sig[uncut], eps=eps[uncut])]
+    if cut.any():
+        parts.append(_subcell_pieces(model, xl))
+    out = {}
+    for k in parts[0]:
+        arrs = [p[k] for p in parts]
+        if arrs[0].ndim == 3:        # pad nodes to 8
+            arrs = [np.concatenate([a, np.zeros((len(a), 8 - a.shape[1], 2))], axis=1) for a in arrs]
+        out[k] = np.concatenate(arrs)
+    return out
+
+
+def _subcell_pieces(model, xl):
+    """Sub-triangles of the cut cells with their mean stresses and strains."""
+    mesh, geo, layout = model.mesh, model.geo, model.layout
+    el = mesh.element
+    sub = geo.subcells
+    k, ns = sub.side.shape
+    live = sub.side != 0                                                      # (k, ns)
+    cells = np.repeat(sub.cells, ns)[live.ravel()]
+    xi = sub.nodes[live]                                                      # (m, 6, 2)
+    side = sub.side[live]
+    xc = mesh.x[mesh.cell_nodes[cells]]
+    x = np.einsum("mpa,mai->mpi", el.shape(xi), xc)
+    pts, = xgeo.cell_points(mesh, geo, sub.cells)                            # cut cells only: one batch
+    G = np.concatenate([pts.dNdx, heaviside_weights(mesh, geo, pts)[..., None] * pts.dNdx], axis=2)
+    ue = xl[bulk.enriched_batch(mesh, layout, pts.cells).local]
+    e = elasticity.strain(G, ue)                                              # (k, ns nq, 3)
+    w = pts.w.reshape(k, ns, -1)                                              # sub-cell major
+    area = np.maximum(w.sum(axis=2), 1e-300)[..., None]
+    eps = np.einsum("ksq,ksqi->ksi", w, e.reshape(k, ns, -1, 3)) / area       # (k, ns, 3)
+    sig = eps @ model.D.T                                                     # linear: mean of D eps
+    return dict(cell=mesh.cell_ids[cells], sub=np.nonzero(live)[1], nn=np.full(len(cells), 6),
+                x=x, u=displacement_at(model, xl, cells, xi, side), side=side,
+                sig=sig[live], eps=eps[live])
+
+
+def displacement_at(model, xl, cells, xi, side):
+    """Displacement ``(k, p, 2)`` (m) at parent reference points ``xi (k, p, 2)`` of
+    local ``cells (k,)``, on side ``side (k,)``:
+    ``u = sum N_a a_a + sum psi_a N_a h_a``, ``psi_a = H(side) - H(node a)``."""
+    mesh, geo, layout = model.mesh, model.geo, model.layout
+    nodes = mesh.cell_nodes[cells]
+    N = mesh.element.shape(xi)                                                # (k, p, nn)
+    u = np.einsum("kpa,kai->kpi", N, xl[layout.u_local[nodes]])
+    if geo is not None:
+        hl = np.where(layout.h_local >= 0, layout.h_local, layout.dummy)
+        psi = (np.asarray(side)[:, None] - geo.node_side[nodes]) * geo.enriched[nodes]   # (k, nn)
+        u += np.einsum("kpa,ka,kai->kpi", N, psi, xl[hl[nodes]])
+    return u
+
+
+def interface_samples(model):
+    """Multipliers and statuses at the interface points of every local segment
+    (its ends, mid-point and quarter points).  Collective (reads remote dofs).
+
+    Returns a dict of flat arrays: x, y (m), cell (input id), LAGS_C (Pa),
+    LAGS_F1, contact, sliding; None without contact.
+    """
+    op = model.interface
+    if op is None:
+        return None
+    mesh, el = model.mesh, model.mesh.element
+    segs = op.segments
+    ve = op.element_values(model.x)
+    terms = op.terms(model.x)
+    nn, nv = op.nn, op.nv
+    xi = np.einsum("pa,kai->kpi", Seg3.shape(SEGMENT_POINTS), segs.nodes)     # (k, 5, 2)
+    x = np.einsum("kpa,kai->kpi", el.shape(xi), mesh.x[mesh.cell_nodes[segs.cells]])
+    phi = model.space.functions(el.shape_linear(xi))                         # (k, 5, m)
+    near = np.argmin(np.abs(op.pts.s[None, :] - SEGMENT_POINTS[:, None]), axis=1)   # (5,)
+    k = len(segs)
+    lam = np.einsum("kpa,ka->kp", phi, ve[:, 2 * nn:2 * nn + nv])
+    fric = np.einsum("kpa,ka->kp", phi, ve[:, 2 * nn + nv:])
+    return {"x": x[..., 0].ravel(), "y": x[..., 1].ravel(),
+            "cell": np.repeat(mesh.cell_ids[segs.cells], len(SEGMENT_POINTS)),
+            "LAGS_C": lam.ravel(),
+            "LAGS_F1": _semi_multiplier(op.law, lam, fric).ravel(),
+            "contact": op.chi[:, near].astype(float).reshape(k * len(near)),
+            "sliding": terms["slip"][:, near].astype(float).reshape(k * len(near))}
+
+
+def _semi_multiplier(law, lam, fric):
+    """LAGS_F1 from the friction dof's interpolated value (the law decides what it holds)."""
+    from xfemcontact.contact import law as claw
+
+    convert = getattr(claw, "semi_multiplier", None)
+    return fric if convert is None else convert(law, claw.threshold(lam), fric)
+
+
+# -- the whole mesh on rank 0 ----------------------------------------------------------
+def build(model, values):
+    """The PostMesh on rank 0, None elsewhere.  Collective.
+
+    ``values``: the stresses at quadrature points (``model.stresses()``).
+    """
+    xl = model.local_solution()
+    payload = (_pieces(model, values, xl), interface_samples(model))
+    parts = model.comm.tompi4py().gather(payload, root=0)
+    if parts is None:
+        return None
+    pieces = {k: np.concatenate([p[0][k] for p in parts]) for k in parts[0][0]}
+    samples = None
+    if parts[0][1] is not None:
+        samples = {k: np.concatenate([p[1][k] for p in parts]) for k in parts[0][1]}
+    return assemble(pieces, samples, model.mesh.cell_type)
+
+
+def assemble(pieces, samples, cell_type):
+    """Number cells and points of the gathered ``pieces`` (see :func:`_pieces`)."""
+    tri = element("TRIA6")
+    parent = element(cell_type)
+    block = (pieces["nn"] == 6).astype(int) if cell_type == "QUAD8" else np.zeros(len(pieces["nn"]), int)
+    order = np.lexsort((pieces["sub"], pieces["cell"], block))
+    p = {k: v[order] for k, v in pieces.items()}
+    block = block[order]
+    nn = p["nn"]
+    slot = np.arange(8)[None, :] < nn[:, None]                                # (m, 8) live node slots
+    xs = p["x"][slot]                                                         # (S, 2) in cell order
+    side_s = np.repeat(p["side"], nn)
+    loc = merge_points(xs)
+    # a point per (location, side); the interface is where a location has two sides
+    key = loc * 3 + (side_s + 1)
+    uniq, first, slot_point = np.unique(key, return_index=True, return_inverse=True)
+    rank = np.empty(len(uniq), np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(uniq))            # number by first use
+    slot_point = rank[slot_point]
+    pfirst = np.sort(first)
+    points = xs[pfirst]
+    ploc = loc[pfirst]
+    pside = side_s[pfirst]
+    nsides = np.bincount(ploc, minlength=ploc.max() + 1 if len(ploc) else 0)
+    on_itf = nsides[ploc] > 1
+    us = p["u"][slot][pfirst]
+    pd = {"DX": us[:, 0], "DY": us[:, 1], "LAGS_C": np.zeros(len(points)), "LAGS_F1": np.zeros(len(points)),
+          "contact": np.zeros(len(points)), "sliding": np.zeros(len(points)),
+          "NFISSU": np.where(on_itf, pside, 0).astype(np.int64)}
+    if samples is not None and on_itf.any():
+        _set_interface_values(pd, points, ploc, on_itf, samples)
+    conn = np.full(slot.shape, -1, np.int64)
+    conn[slot] = slot_point
+    blocks, cd = [], {k: [] for k in CELL_FIELDS}
+    names = [MESHIO_CELL[cell_type], "triangle6"] if cell_type == "QUAD8" else [MESHIO_CELL[cell_type]]
+    for b, name in enumerate(names):
+        rows = block == b
+        if not rows.any():
+            continue
+        n = parent.nn if (b == 0 and cell_type == "QUAD8") else tri.nn
+        blocks.append((name, conn[rows, :n]))
+        sig, eps = p["sig"][rows], p["eps"][rows]
+        for i, c in enumerate(("XX", "YY", "XY")):
+            cd["SI" + c].append(sig[:, i])
+            cd["EP" + c].append(eps[:, i] * (0.5 if c == "XY" else 1.0))
+        cd["side"].append(p["side"][rows].astype(np.int64))
+        cd["cell"].append(p["cell"][rows].astype(np.int64))
+        cd["subcell"].append(p["sub"][rows].astype(np.int64))
+    return PostMesh(points, blocks, pd, cd)
+
+
+def merge_points(xs):
+    """Label ``(S,)`` of each point of ``xs (S, 2)``: equal for points closer than
+    MERGE_TOL times the bounding-box diagonal, numbered by first appearance."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    n = len(xs)
+    if n == 0:
+        return np.zeros(0, np.int64)
+    diag = float(np.hypot(*(xs.max(axis=0) - xs.min(axis=0)))) or 1.0
+    pairs = cKDTree(xs).query_pairs(MERGE_TOL * diag, output_type="ndarray")
+    g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, lab = connected_components(g, directed=False)
+    _, first, inv = np.unique(lab, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
+    return rank[inv]
+
+
+def _set_interface_values(pd, points, ploc, on_itf, samples):
+    """LAGS_C, LAGS_F1 and statuses at the interface points (every copy), from the
+    sample of the lowest input cell at that location; samples at no post-mesh
+    point (quarter points of segments lying on cell edges) are ignored."""
+    from scipy.spatial import cKDTree
+
+    ip = np.nonzero(on_itf)[0]
+    locs, first = np.unique(ploc[ip], return_index=True)
+    xy = points[ip[first]]                                                    # one per location
+    diag = float(np.hypot(*(points.max(axis=0) - points.min(axis=0)))) or 1.0
+    order = np.argsort(samples["cell"], kind="stable")
+    sx = np.c_[samples["x"], samples["y"]][order]
+    d, j = cKDTree(xy).query(sx, distance_upper_bound=SAMPLE_TOL * diag)
+    hit = np.nonzero(np.isfinite(d))[0]
+    loc_hit, take = np.unique(j[hit], return_index=True)                     # first sample per location
+    pos = np.searchsorted(locs, ploc[ip])
+    for key in ("LAGS_C", "LAGS_F1", "contact", "sliding"):
+        v = np.zeros(len(locs))
+        v[loc_hit] = samples[key][order][hit[take]]
+        pd[key][ip] = v[pos]
