@@ -16,7 +16,8 @@ USAGE = """usage: xfemcontact run CASE.toml [-o OUTDIR] [--overwrite] [PETSc opt
   --overwrite      replace an existing result folder
   PETSc options    anything else, e.g. -snes_monitor -ksp_view -log_view
                    -pc_factor_mat_solver_type mumps -mat_mumps_icntl_24 1
-exit codes: 0 solved and all tests OK, 1 a test NOOK, 2 bad input, 3 no convergence
+exit codes: 0 solved and all tests OK, 1 a test NOOK, 2 bad input, 3 no convergence,
+            130/143 interrupted (SIGINT/SIGTERM; previous results kept)
 """
 
 
@@ -55,34 +56,45 @@ def main(argv=None):
         print(USAGE, end="")
         return 0 if want_help else 2
     xfemcontact.PETSC_ARGV[:] = petsc
-    from xfemcontact._petsc import PETSc
-    from xfemcontact.errors import CaseError, FormulaError, XfcError
+    from xfemcontact.errors import Interrupted, XfcError
+    from xfemcontact.output.folder import handle_signals, restore_signals
 
-    comm = PETSc.COMM_WORLD
+    previous = handle_signals()       # SIGINT/SIGTERM -> Interrupted: a clean stop
+    comm = None
     try:
+        from xfemcontact._petsc import PETSc
+
+        comm = PETSc.COMM_WORLD
         from xfemcontact.run import run
 
         return run(case, outdir, overwrite)
-    except (CaseError, FormulaError) as err:
-        # raised identically on every process (the case is read by all): report once
-        if comm.rank == 0:
-            print(f"error: {err}", file=sys.stderr, flush=True)
-        return err.exit_code
+    except Interrupted as exc:
+        # every process is signalled by mpirun; rank 0 knows what became of the results
+        if comm is None or comm.rank == 0:
+            print(str(exc), file=sys.stderr, flush=True)
+        return exc.exit_code
     except XfcError as err:
+        if err.collective:
+            # raised identically on every process: report once, everybody leaves
+            if comm is None or comm.rank == 0:
+                print(f"error: {err}", file=sys.stderr, flush=True)
+            return err.exit_code
         print(f"error: {err}", file=sys.stderr, flush=True)
         return _finish(comm, err.exit_code)
     except BaseException:
-        if comm.size == 1:
+        if comm is None or comm.size == 1:
             raise
         import traceback
 
         traceback.print_exc()
         return _finish(comm, 1)
+    finally:
+        restore_signals(previous)
 
 
 def _finish(comm, code):
     """Leave with ``code``; under MPI a failure on one process must stop all of them."""
-    if comm.size > 1:
+    if comm is not None and comm.size > 1:
         sys.stderr.flush()
         comm.tompi4py().Abort(code)
     return code

@@ -55,7 +55,13 @@ class Model:
         with phase("mesh"):
             if raw is None and self.comm.rank == 0:
                 raw = build_raw_mesh(case)
-            self.mesh = plex.load(raw, self.comm)
+            weights = None
+            if self.comm.size > 1 and self.comm.rank == 0:
+                from xfemcontact.mesh.partition import cut_cell_weights
+
+                itf = case.interface
+                weights = cut_cell_weights(raw, itf.level_set if itf is not None else None)
+            self.mesh = plex.load(raw, self.comm, weights)
             case.check_groups(self.mesh.group_names())
         mat = case.material
         self.D = hooke(mat.E, mat.nu, mat.model)
@@ -83,8 +89,11 @@ class Model:
         mesh = self.mesh
         field = None
         if itf.level_set_field is not None:
-            raise MeshError(f"{self.case.source}: interface.level_set_field: reading nodal fields "
-                            f"from mesh files is not available yet; give interface.level_set")
+            field = (mesh.node_data or {}).get(itf.level_set_field)
+            if field is None:
+                names = ", ".join(sorted(mesh.node_data or {})) or "none"
+                raise MeshError(f"{self.case.source}: interface.level_set_field: no nodal field "
+                                f"'{itf.level_set_field}' in {mesh.source} (nodal fields: {names})")
         phi = levelset.nodal_values(mesh, itf, field)
         return geometry.build(mesh, phi)
 
@@ -182,7 +191,9 @@ class Model:
         system.add_tractions(mesh, geo, layout, self.case.traction, f_ext)
         self.f0 = system.local_to_global(layout, lift - f_ext)
         self.load_norm = self.f0.norm()
-        self.J = self.K if self.interface is None else self.K.duplicate(copy=True)
+        # one matrix: J = K_bulk + (interface tangent of the last Jacobian, K_int)
+        self.J = self.K
+        self.K_int = None
 
     def _zero_interface_pattern(self, A):
         """Explicit zeros on every interface coupling, so the pattern never changes."""
@@ -196,19 +207,22 @@ class Model:
 
     # -- solve --------------------------------------------------------------
     def residual(self, snes, x, f):
-        self.K.mult(x, f)
+        """R(x) = K_bulk x + f0 + R_interface(x), with K_bulk x = J x - K_int x."""
+        self.J.mult(x, f)
         f.axpy(1.0, self.f0)
         if self.interface is not None:
+            if self.K_int is not None:
+                self.interface.add_product(self.K_int, x, f, -1.0)
             self.interface.add_residual(x, f)
 
     def jacobian(self, snes, x, J, P):
+        """J = K_bulk + K_int(x): replace the previous interface tangent in place."""
         self.n_jacobians += 1
         if self.interface is None:
             return
-        from xfemcontact._petsc import PETSc
-
-        self.K.copy(J, PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        self.interface.add_jacobian(x, J)
+        new = self.interface.element_matrices(x)
+        self.interface.add_matrices(J, new if self.K_int is None else new - self.K_int)
+        self.K_int = new
         J.assemble()
 
     def solve(self):

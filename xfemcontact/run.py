@@ -1,16 +1,25 @@
 """Run a case from start to end: solve, test table, result files.
 
 Exit codes: 0 solved and every test OK; 1 some test NOOK; 2 bad input;
-3 no convergence.
+3 no convergence; 130/143 interrupted by SIGINT/SIGTERM.
+
+Order: read the case, check the output folder, build the input mesh and check
+the case against it (:mod:`xfemcontact.checks`, before anything heavy), set up
+and solve, evaluate the tests (only when converged), write the files into a
+temporary folder, results.json last, and rename it into place.
 """
+import dataclasses
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
+from xfemcontact import checks as input_checks
 from xfemcontact import timing
 from xfemcontact._petsc import PETSc
 from xfemcontact.case import load_case
-from xfemcontact.errors import ConvergenceError
+from xfemcontact.errors import ConvergenceError, Interrupted
 from xfemcontact.output import results
 from xfemcontact.output.folder import OutputFolder
 from xfemcontact.post import checks
@@ -41,38 +50,191 @@ def cell_samples(model, values):
 
 
 def run(case_path, outdir=None, overwrite=False):
-    """Solve ``case_path``, write results into ``outdir``; return the exit code."""
+    """Solve ``case_path``, write results into ``outdir``; return the exit code.
+
+    Raises :class:`ConvergenceError` (exit code 3) after writing the results of
+    a run that did not converge (results.json with ``"converged": false`` and
+    ``"diagnostics"``, no test table), and :class:`Interrupted` (with its
+    ``outcome``) when SIGINT or SIGTERM stopped it.
+    """
     comm = PETSc.COMM_WORLD
+    mpi = comm.tompi4py()
     t0 = time.perf_counter()
     timing.reset()
-    case = load_case(case_path)
-    outdir = outdir or f"results/{case.name}"
-    folder = OutputFolder(outdir, overwrite, comm.tompi4py())
+    timing.start_logging()
+    folder = None
+    try:
+        case = load_case(case_path)
+        outdir = outdir or f"results/{case.name}"
+        folder = OutputFolder(outdir, overwrite, mpi)
+    except Interrupted as exc:
+        exc.outcome = _untouched(outdir)
+        raise
     try:
         from xfemcontact.model import Model
 
-        model = Model.from_case(case)
+        with timing.phase("mesh"):
+            raw = input_checks.build_mesh(case, mpi)
+        with timing.phase("checks"):
+            pre = input_checks.preflight(case, raw, mpi)
+        warn(comm, *pre.warnings)
+        if not pre.interface:
+            case = dataclasses.replace(case, interface=None)
+        model = Model.from_case(case, raw)
+        del raw
         say(comm, f"{case.title}: {model.layout.global_size} dofs on {comm.size} process(es)")
         reason = model.solve()
         converged = reason > 0
+        loop_warnings = list(model.loops.warnings) if model.loops else []
+        warn(comm, *loop_warnings)
+        diagnostics = None if converged else diagnose(model, reason, outdir)
+        outcomes = []
         with timing.phase("post"):
             u = model.displacement()
             values = model.stresses()
-            samples = {"node": node_samples(model, u), "cell": cell_samples(model, values)}
-            samples.update(model.interface_samples() if hasattr(model, "interface_samples") else {})
-            outcomes = checks.evaluate(case.tests, samples, case.reference, comm)
+            if converged:      # tests on a run that did not converge would mean nothing
+                samples = {"node": node_samples(model, u), "cell": cell_samples(model, values)}
+                samples.update(model.interface_samples() if hasattr(model, "interface_samples") else {})
+                outcomes = checks.evaluate(case.tests, samples, case.reference, comm)
         with timing.phase("output"):
             results.write_outputs(folder, model, u, values, converged, reason, outcomes)
         timing.TIMINGS["total"] = time.perf_counter() - t0
-        folder.write_json("results.json", results.summary(model, converged, reason, outcomes))
+        summary = results.summary(model, converged, reason, outcomes)
+        summary["warnings"] = pre.warnings + list(summary.get("warnings") or [])
+        if diagnostics is not None:
+            summary["diagnostics"] = diagnostics
+            summary["tests"] = []
+            summary["tests_skipped"] = f"not converged: {len(case.tests)} test(s) not evaluated"
+        folder.write_json("results.json", summary)      # last: the folder is complete
         folder.commit()
+    except Interrupted as exc:
+        folder.abort()
+        exc.outcome = folder.outcome()
+        raise
     except BaseException:
         folder.abort()
         raise
     if outcomes:
         say(comm, *checks.table(outcomes))
-    say(comm, f"results in {outdir}/ ({timing.TIMINGS['total']:.2f} s)")
     if not converged:
-        raise ConvergenceError(f"{case.source}: Newton did not converge (SNES reason {reason}); "
-                               f"see {outdir}/results.json")
+        say(comm, f"NOT CONVERGED: last iterate and diagnostics in {outdir}/ "
+                  f"(results.json: \"converged\": false; {len(case.tests)} test(s) not evaluated)")
+        raise ConvergenceError(diagnostics["message"], diagnostics=diagnostics)
+    say(comm, f"results in {outdir}/ ({timing.TIMINGS['total']:.2f} s)")
     return 0 if all(o.ok for o in outcomes) else 1
+
+
+def warn(comm, *lines):
+    """Warnings: on stderr, once (rank 0), each line prefixed with ``warning:``."""
+    if comm.rank == 0:
+        for line in lines:
+            print(f"warning: {line}", file=sys.stderr, flush=True)
+
+
+def _untouched(outdir):
+    if outdir and Path(outdir).is_dir():
+        return f"previous results in {outdir} kept"
+    return "no results written"
+
+
+# --- diagnostics of a run that did not converge -------------------------------------------
+
+def _names(reasons):
+    """value -> name of a PETSc reason enumeration (the first name of aliases)."""
+    out = {}
+    for name, value in vars(reasons).items():
+        if isinstance(value, int) and not name.startswith("_"):
+            out.setdefault(value, name)
+    return out
+
+
+_SNES = _names(PETSc.SNES.ConvergedReason)
+_KSP = _names(PETSc.KSP.ConvergedReason)
+#: MUMPS INFOG(1) -> what to do
+_MUMPS_HINTS = {
+    -8: "MUMPS ran out of work space: raise -mat_mumps_icntl_14 (e.g. 50)",
+    -9: "MUMPS ran out of work space: raise -mat_mumps_icntl_14 (e.g. 50)",
+    -10: "MUMPS found the matrix numerically singular: check the supports and the interface law",
+    -13: "MUMPS could not allocate memory: use more processes or a machine with more memory",
+    -19: "MUMPS hit the memory limit -mat_mumps_icntl_23: raise it",
+}
+
+
+def diagnose(model, reason, outdir):
+    """What did not converge and why (collective: every process gets the same dict).
+
+    Keys: ``loop`` ("newton", "linear solver", "contact" or "friction"),
+    ``reason`` / ``reason_name`` (outermost SNES), ``newton_reason``,
+    ``last_residuals`` (last residual norms of the last Newton solve, absolute)
+    and ``relative_residuals`` (divided by the load norm), ``load_norm``,
+    ``status_changes`` (points whose contact status changed at the last status
+    iteration, None without contact), ``threshold_change`` (last relative
+    change of the friction thresholds), ``linear_solver`` (KSP reason, MUMPS
+    INFOG(1)) and ``message`` (one line, the error printed).
+    """
+    case, snes, loops = model.case, model.snes, model.loops
+    R = PETSc.SNES.ConvergedReason
+    newton_reason = int(snes.getConvergedReason())
+    history = [float(r) for r in getattr(model.newton_test, "history", [])]
+    last_solve = loops.newton[-1] + 1 if loops is not None and loops.newton else len(history)
+    last = history[-min(max(last_solve, 1), 3):] if history else []
+    load = float(getattr(model, "load_norm", 0.0) or 0.0)
+    relative = [r / load for r in last] if load > 0 else []
+    ksp_reason = int(snes.getKSP().getConvergedReason())
+    mumps = None
+    try:
+        info = model.solver_info() or {}
+        mumps = (info.get("mumps") or {}).get("status")
+    except Exception:       # no factorisation: nothing to say about it
+        pass
+    changes = int(loops.status_changes[-1]) if loops is not None and loops.status_changes else None
+    threshold = float(loops.threshold_changes[-1]) if loops is not None and loops.threshold_changes \
+        else None
+
+    loop = "newton"
+    if loops is not None:
+        friction = model.law.friction
+        contact_reason = int(model.contact_snes.getConvergedReason())
+        if friction and reason == R.DIVERGED_MAX_IT:
+            loop = "friction"
+        elif contact_reason == R.DIVERGED_MAX_IT:
+            loop = "contact"
+    if loop == "newton" and newton_reason == R.DIVERGED_LINEAR_SOLVE:
+        loop = "linear solver"
+
+    c = case.contact
+    if loop == "friction":
+        what = (f"friction thresholds still changing after ITER_FROT_MAXI = "
+                f"{model.outer_snes.getTolerances()[3]} iterations (relative change "
+                f"{threshold:.3g} > RESI_FROT = {c.resi_frot:g}); raise iter_frot_maxi")
+    elif loop == "contact":
+        what = (f"contact statuses still changing after ITER_CONT_MAXI = "
+                f"{model.contact_snes.getTolerances()[3]} iterations; raise iter_cont_maxi, "
+                f"or use smaller load steps")
+    elif loop == "linear solver":
+        what = f"the linear solver failed ({_KSP.get(ksp_reason, ksp_reason)}"
+        what += f", MUMPS INFOG(1) = {mumps})" if mumps is not None else ")"
+        if mumps in _MUMPS_HINTS:
+            what += f": {_MUMPS_HINTS[mumps]}"
+    elif newton_reason == R.DIVERGED_MAX_IT:
+        what = (f"Newton did not converge in ITER_GLOB_MAXI = {snes.getTolerances()[3]} "
+                f"iterations (RESI_GLOB_RELA = {snes.getTolerances()[0]:g}); raise "
+                f"iter_glob_maxi")
+    elif newton_reason == R.DIVERGED_FNORM_NAN:
+        what = "Newton: the residual is NaN or infinite"
+    else:
+        what = f"Newton diverged ({_SNES.get(newton_reason, newton_reason)})"
+    parts = [f"{case.source}: no convergence: {what}"]
+    if last:
+        rel = f" (relative to the loads: {relative[-1]:.3e})" if relative else ""
+        parts.append("last residuals " + ", ".join(f"{r:.3e}" for r in last) + rel)
+    if changes is not None:
+        parts.append(f"{changes} point(s) changed contact status at the last status iteration")
+    parts.append(f"see {outdir}/results.json")
+    return {
+        "loop": loop, "reason": int(reason), "reason_name": _SNES.get(int(reason), str(reason)),
+        "newton_reason": newton_reason, "last_residuals": last, "relative_residuals": relative,
+        "load_norm": load, "status_changes": changes, "threshold_change": threshold,
+        "linear_solver": {"ksp_reason": _KSP.get(ksp_reason, ksp_reason), "mumps_infog1": mumps},
+        "message": "; ".join(parts),
+    }

@@ -33,3 +33,39 @@ def phase(name):
 
 def reset():
     TIMINGS.clear()
+
+
+#: PETSc events reported in results.json: MUMPS analysis (symbolic), factorisation,
+#: solves, and the SNES callbacks
+SOLVER_EVENTS = ("MatLUFactorSym", "MatLUFactorNum", "MatCholFctrSym", "MatCholFctrNum",
+                 "MatSolve", "SNESFunctionEval", "SNESJacobianEval", "MatAssemblyEnd")
+
+
+def start_logging():
+    """Turn PETSc's event logging on (cheap) so that solver phases can be reported."""
+    PETSc.Log.begin()
+
+
+def solver_events(comm):
+    """Count and wall time (max over processes, s) of :data:`SOLVER_EVENTS` that ran."""
+    mpi = comm.tompi4py()
+    out = {}
+    for name in SOLVER_EVENTS:
+        info = PETSc.Log.Event(name).getPerfInfo()
+        t = mpi.allreduce(info["time"], op=_mpi_max())
+        if info["count"]:
+            out[name] = {"count": int(info["count"]), "time": round(t, 4)}
+    return out
+
+
+def peak_memory_mb(comm):
+    """Peak resident memory of every process, MB."""
+    import resource
+
+    return comm.tompi4py().allgather(round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1))
+
+
+def _mpi_max():
+    from mpi4py import MPI
+
+    return MPI.MAX

@@ -303,6 +303,10 @@ class _Walker:
         return value
 
     def _float(self, key, raw, at, siblings):
+        if isinstance(raw, str):
+            hint = _unit_hint(raw, key.doc)
+            if hint:
+                self.fail(at, f"expected a number, got {_show(raw)} ({hint})")
         return float(self._bounded(key, self._number(raw, at), at))
 
     def _int(self, key, raw, at, siblings):
@@ -342,7 +346,14 @@ class _Walker:
         return tuple(dict.fromkeys(items))
 
     def _formula(self, key, raw, at, siblings):
-        return _single_line(compile_formula, raw, self.params, source=self.source, key=at)
+        try:
+            return _single_line(compile_formula, raw, self.params, source=self.source, key=at)
+        except FormulaError as exc:
+            hint = _unit_hint(raw, key.doc, strict=True) if isinstance(raw, str) else None
+            if hint:
+                raise FormulaError(f"{where(self.source, at)}: expected a number or a formula, "
+                                   f"got {_show(raw)} ({hint})") from None
+            raise exc from None
 
     def _condition(self, key, raw, at, siblings):
         variables = key.variables[siblings[key.context]]
@@ -404,6 +415,33 @@ def _single_line(compile_, raw, params, **kwargs):
         if _printable(message) != message:
             raise FormulaError(_printable(message)) from None
         raise
+
+
+#: SI prefixes understood in unit hints
+_PREFIXES = {"": 1.0, "T": 1e12, "G": 1e9, "M": 1e6, "k": 1e3, "h": 1e2, "c": 1e-2,
+             "m": 1e-3, "u": 1e-6, "\u00b5": 1e-6, "\u03bc": 1e-6, "n": 1e-9}
+_WITH_UNIT = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\d\s.,+*/()-][^\s]*)\s*")
+
+
+def _unit_hint(text, doc, strict=False):
+    """What to write instead of a number with a unit (``"210 GPa"``), or None.
+
+    The key's unit is read from its documentation (``"... in Pa"``); a unit
+    made of an SI prefix and it gives the value to write.  With ``strict``
+    (formulas, where ``"2 x"`` is a different mistake) only such units count.
+    """
+    found = _WITH_UNIT.fullmatch(text[:100])
+    if not found:
+        return None
+    number, unit = found.group(1), found.group(2)
+    si = re.search(r"\bin ([A-Za-z][A-Za-z/^0-9]*)", doc)
+    si = si.group(1) if si else None
+    if si and unit.endswith(si) and unit[:len(unit) - len(si)] in _PREFIXES:
+        value = float(number) * _PREFIXES[unit[:len(unit) - len(si)]]
+        return f"write numbers without units, in {si}: {value:g}"
+    if strict:
+        return None
+    return f"write numbers without units, in {si}" if si else "write numbers without units"
 
 
 # --- building the case ---------------------------------------------------------------------

@@ -220,8 +220,9 @@ CONTACT = Table({
     "iter_frot_maxi": Key("int", "most friction threshold iterations", default=10, ge=1),
     "resi_frot": Key("float", "friction threshold convergence tolerance", default=1e-4, gt=0),
     "ordre_int": Key("int", "Gauss points per interface segment", default=4, ge=1, le=8),
-    "algo_lagr": Key("choice", "multiplier space: AUTO = VERSION3 (unique multipliers), "
-                     "NON = raw vertex space (singular, for comparison)", default="AUTO",
+    "algo_lagr": Key("choice", "multiplier space: AUTO (= VERSION3) makes the vertex multipliers "
+                     "unique (weak vertices aggregated, kernels of straight interfaces tied); "
+                     "NON = raw vertex space (may be singular, for comparison)", default="AUTO",
                      choices=("AUTO", "VERSION3", "NON")),
     "friction_unknown": Key("choice", "friction dof: LAGS_F1 = code_aster's semi-multiplier (exact "
                             "|LAGS_F1| = 1 in slip), TRACTION = tangential traction (stick tangent "

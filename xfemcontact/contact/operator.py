@@ -100,7 +100,8 @@ class InterfaceOperator:
         f.assemblyBegin()
         f.assemblyEnd()
 
-    def add_jacobian(self, x, J):
+    def element_matrices(self, x):
+        """Interface element tangents ``(k, nd, nd)`` at ``x``."""
         t = self.terms(x)
         w = self.pts.w
         a_n, a_t = self._operators()
@@ -119,10 +120,23 @@ class InterfaceOperator:
         K[:, nh + nv:, :nh] = KhL.transpose(0, 2, 1)
         K[:, nh:nh + nv, nh:nh + nv] = np.einsum("kq,kqa,kqb->kab", w * t["ll"], phi, phi)
         K[:, nh + nv:, nh + nv:] = np.einsum("kq,kqa,kqb->kab", w * t["LL"], phi, phi)
+        return K
+
+    def add_matrices(self, J, K):
+        """``J += K`` on the interface elements (ADD_VALUES)."""
         g = self.gidx.astype(PETSc.IntType)
         if len(g) == 0:           # petsc4py divides by the batch size
             return
         J.setValuesRCV(g, g, K, addv=PETSc.InsertMode.ADD_VALUES)
+
+    def add_product(self, K, x, f, scale=1.0):
+        """``f += scale * K x`` for element matrices ``K`` of the interface elements."""
+        ve = self.element_values(x)
+        r = scale * np.einsum("kij,kj->ki", K, ve)
+        live = self.gidx >= 0
+        f.setValues(self.gidx[live].astype(PETSc.IntType), r[live], addv=PETSc.InsertMode.ADD_VALUES)
+        f.assemblyBegin()
+        f.assemblyEnd()
 
     # -- statuses -------------------------------------------------------------
     def update_status(self, x):

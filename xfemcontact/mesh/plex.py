@@ -10,8 +10,9 @@ a cell field (the cell's index in the input mesh) are distributed with the mesh,
 so that curved edges survive distribution and every decision that must not
 depend on the partition can be keyed by input indices.
 
-Partitioning is chosen with the PETSc options database
-(``-petscpartitioner_type ptscotch|simple|shell...``).
+Partitioning: METIS (pymetis, cut cells weighted, see
+:mod:`xfemcontact.mesh.partition`) by default; any PETSc partitioner with
+``-petscpartitioner_type ptscotch|simple``.
 """
 from dataclasses import dataclass
 
@@ -47,8 +48,11 @@ def _build_serial(raw, comm):
     dm = PETSc.DMPlex().createFromCellList(2, cells, coords, interpolate=True, comm=comm)
     dm.setName("mesh")
     if comm.rank == 0:
-        node_of_point = _match_nodes(dm, raw, vnodes, vindex)
-        _label_groups(dm, raw, vnodes, vindex, node_of_point)
+        es, ee = dm.getDepthStratum(1)
+        vs = dm.getDepthStratum(0)[0]
+        cones = np.array([dm.getCone(e) for e in range(es, ee)], dtype=np.int64).reshape(-1, 2) - vs
+        node_of_point = _match_nodes(dm, raw, vnodes, vindex, cones)
+        _label_groups(dm, raw, vnodes, vindex, node_of_point, cones)
     else:
         node_of_point = np.full(dm.getChart()[1] - dm.getChart()[0], -1, dtype=np.int64)
     dm.createLabel(_BOUNDARY)
@@ -56,7 +60,7 @@ def _build_serial(raw, comm):
     return dm, node_of_point
 
 
-def _match_nodes(dm, raw, vnodes, vindex):
+def _match_nodes(dm, raw, vnodes, vindex, cone):
     """Input node index of every vertex and edge point (-1 for cells)."""
     pstart, pend = dm.getChart()
     vs, ve = dm.getDepthStratum(0)
@@ -64,7 +68,6 @@ def _match_nodes(dm, raw, vnodes, vindex):
     node_of_point = np.full(pend - pstart, -1, dtype=np.int64)
     node_of_point[vs:ve] = vnodes
     nvert = len(vnodes)
-    cone = np.array([dm.getCone(e) for e in range(es, ee)], dtype=np.int64).reshape(-1, 2) - vs
     el = element(raw.cell_type)
     ed = raw.cells[:, el.edges]                                   # (ne, nedges, 3)
     keys = _edge_keys(vindex[ed[..., 0]], vindex[ed[..., 1]], nvert).ravel()
@@ -75,7 +78,7 @@ def _match_nodes(dm, raw, vnodes, vindex):
     return node_of_point
 
 
-def _label_groups(dm, raw, vnodes, vindex, node_of_point):
+def _label_groups(dm, raw, vnodes, vindex, node_of_point, cone):
     """One DMLabel per mesh group (value 1) on rank 0."""
     cs, ce = dm.getHeightStratum(0)
     vs = dm.getDepthStratum(0)[0]
@@ -86,7 +89,6 @@ def _label_groups(dm, raw, vnodes, vindex, node_of_point):
     point_of_node = np.full(len(raw.points), -1, dtype=np.int64)
     point_of_node[vnodes] = np.arange(vs, vs + nvert)
     point_of_node[edge_nodes] = np.arange(es, ee)
-    cone = np.array([dm.getCone(e) for e in range(es, ee)], dtype=np.int64).reshape(-1, 2) - vs
     ekeys = _edge_keys(cone[:, 0], cone[:, 1], nvert)
     order = np.argsort(ekeys)
     for name in raw.group_names():
@@ -119,13 +121,13 @@ def _set_stratum(label, value, points):
     label.setStratumIS(value, PETSc.IS().createGeneral(pts, comm=PETSc.COMM_SELF))
 
 
-def _nodal_field(dm, node_of_point, points):
-    """Section and Vec carrying (x, y, input node index) on vertices and edges and
-    (input cell index) on cells."""
+def _nodal_field(dm, node_of_point, points, data):
+    """Section and Vec carrying (x, y, input node index, nodal fields...) on
+    vertices and edges and (input cell index) on cells."""
     pstart, pend = dm.getChart()
     sec = PETSc.Section().create(comm=dm.comm)
     sec.setChart(pstart, pend)
-    dofs = _field_dofs(dm)
+    dofs = _field_dofs(dm, len(data))
     for p in range(pstart, pend):
         sec.setDof(p, dofs[p - pstart])
     sec.setUp()
@@ -140,12 +142,14 @@ def _nodal_field(dm, node_of_point, points):
         a[off[nodes]] = points[n, 0]
         a[off[nodes] + 1] = points[n, 1]
         a[off[nodes] + 2] = n
+        for j, f in enumerate(data):
+            a[off[nodes] + 3 + j] = f[n]
     return sec, vec
 
 
-def _field_dofs(dm):
+def _field_dofs(dm, nfields=0):
     pstart, pend = dm.getChart()
-    dofs = np.full(pend - pstart, 3, dtype=np.int64)
+    dofs = np.full(pend - pstart, 3 + nfields, dtype=np.int64)
     cs, ce = dm.getHeightStratum(0)
     dofs[cs - pstart:ce - pstart] = 1
     return dofs
@@ -155,12 +159,22 @@ def _field_offsets(dofs):
     return np.concatenate([[0], np.cumsum(dofs)[:-1]])
 
 
-def _set_default_partitioner(dm):
+def _partition(dm, raw, comm, cell_weights):
+    """Choose the partitioner: the user's PETSc one, or METIS.  Returns a summary."""
     opts = PETSc.Options()
     part = dm.getPartitioner()
-    if not opts.hasName("petscpartitioner_type"):
-        part.setType(PETSc.Partitioner.Type.PTSCOTCH)
-    part.setFromOptions()
+    if opts.hasName("petscpartitioner_type"):
+        part.setFromOptions()
+        return {"partitioner": part.getType()}
+    from xfemcontact.mesh import partition
+
+    nv = raw.n_vertices_per_cell
+    verts, weights = None, None
+    if comm.rank == 0:
+        verts = raw.cells[:, :nv]
+        weights = cell_weights if cell_weights is not None else np.ones(len(verts), np.int64)
+    sizes, load = partition.shell_partition(dm, verts, weights, comm)
+    return {"partitioner": "metis", "cells": sizes, "weight": load}
 
 
 def point_sf_leaves(dm):
@@ -194,6 +208,8 @@ class LocalMesh:
     node_owned: np.ndarray     # (n,) bool, this process owns the node's point
     n_vertices: int            # local nodes [0, n_vertices) are vertices
     source: str = ""
+    partition: dict = None     # partitioner and load balance
+    node_data: dict = None     # nodal fields of the mesh file, name -> (n,)
 
     @property
     def comm(self):
@@ -300,27 +316,36 @@ class LocalMesh:
         return self.cell_nodes[cell[keep][:, None], self.element.edges[local[keep]]]
 
 
-def load(raw, comm=None):
+def load(raw, comm=None, cell_weights=None):
     """Build the DMPlex of ``raw`` (significant on rank 0), distribute it, return a LocalMesh.
 
-    ``raw`` may be None on ranks other than 0.
+    ``raw`` may be None on ranks other than 0; ``cell_weights`` (rank 0) weight the
+    METIS partition.
     """
     comm = comm or PETSc.COMM_WORLD
     mpi = comm.tompi4py()
-    meta = mpi.bcast((raw.cell_type, raw.source) if mpi.rank == 0 else None, root=0)
-    cell_type, source = meta
+    meta = mpi.bcast((raw.cell_type, raw.source, sorted(raw.point_data)) if mpi.rank == 0 else None,
+                     root=0)
+    cell_type, source, field_names = meta
     if mpi.rank != 0:
         raw = _Stub(cell_type, source)
     dm, node_of_point = _build_serial(raw, comm)
     points = raw.points if mpi.rank == 0 else None
-    sec, vec = _nodal_field(dm, node_of_point, points)
+    data = [raw.point_data[k] for k in field_names] if mpi.rank == 0 else [None] * len(field_names)
+    sec, vec = _nodal_field(dm, node_of_point, points, data)
+    part_info = {"partitioner": "none"}
     if comm.size > 1:
-        _set_default_partitioner(dm)
+        part_info = _partition(dm, raw, comm, cell_weights)
         sf = dm.distribute()
         if sf is not None:
             newsec, newvec = dm.distributeField(sf, sec, vec)
             sec, vec = newsec, newvec
-    return _local_view(dm, sec, vec, cell_type, source)
+    mesh = _local_view(dm, sec, vec, cell_type, source, field_names)
+    counts = comm.tompi4py().allgather(len(mesh.cells))
+    part_info["cells_per_process"] = counts
+    part_info["imbalance"] = max(counts) / (sum(counts) / len(counts)) if sum(counts) else 1.0
+    mesh.partition = part_info
+    return mesh
 
 
 class _Stub:
@@ -330,9 +355,10 @@ class _Stub:
         self.cell_type, self.source = cell_type, source
         self.n_vertices_per_cell = element(cell_type).nv
         self.points = np.zeros((0, 2))
+        self.point_data = {}
 
 
-def _local_view(dm, sec, vec, cell_type, source):
+def _local_view(dm, sec, vec, cell_type, source, field_names=()):
     pstart, pend = dm.getChart()
     cs, ce = dm.getHeightStratum(0)
     vs, ve = dm.getDepthStratum(0)
@@ -347,7 +373,7 @@ def _local_view(dm, sec, vec, cell_type, source):
     nedge = el.nn - el.nv
     # closure = [cell, edges 0..k-1, vertices 0..k-1]; our order = vertices, then edges
     cell_nodes = node_of_point[np.c_[closure[:, 1 + nedge:], closure[:, 1:1 + nedge]]]
-    dofs = _field_dofs(dm)
+    dofs = _field_dofs(dm, len(field_names))
     off = _field_offsets(dofs)
     if sec.getChart()[1] > sec.getChart()[0] and pend > pstart:
         probe = node_points[-1] if len(node_points) else cs
@@ -357,13 +383,14 @@ def _local_view(dm, sec, vec, cell_type, source):
     x = np.c_[a[noff], a[noff + 1]] if len(noff) else np.zeros((0, 2))
     node_ids = a[noff + 2].astype(np.int64) if len(noff) else np.zeros(0, np.int64)
     cell_ids = a[off[cells]].astype(np.int64) if len(cells) else np.zeros(0, np.int64)
+    node_data = {name: (a[noff + 3 + j] if len(noff) else np.zeros(0)) for j, name in enumerate(field_names)}
     owned = np.ones(pend - pstart, dtype=bool)
     leaves = point_sf_leaves(dm)
     owned[leaves] = False
     return LocalMesh(dm=dm, cell_type=cell_type, cells=cells, cell_nodes=cell_nodes,
                      cell_ids=cell_ids, node_points=node_points, node_of_point=node_of_point,
                      x=x, node_ids=node_ids, node_owned=owned[node_points],
-                     n_vertices=ve - vs, source=source)
+                     n_vertices=ve - vs, source=source, node_data=node_data)
 
 
 def reduce_nodes(mesh, values, op="sum"):

@@ -25,6 +25,7 @@ class RawMesh:
     edge_groups: dict = field(default_factory=dict)   # name -> (k, 3) nodes (a, b, mid)
     node_groups: dict = field(default_factory=dict)   # name -> (k,) node indices
     source: str = "<generated>"         # file name used in messages
+    point_data: dict = field(default_factory=dict)    # name -> (n_nodes,) float nodal fields
 
     @property
     def n_vertices_per_cell(self):

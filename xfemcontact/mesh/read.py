@@ -90,7 +90,8 @@ def from_meshio(m, source="<meshio>", fmt=None):
         edge_groups={name: typed[EDGE_TYPE][0][idx]
                      for name, idx in groups[EDGE_TYPE].items()},
         node_groups=_unique_all(node_parts),
-        source=source)
+        source=source,
+        point_data=_scalar_point_data(m, len(points)))
     _check_group_nodes(mesh)
     return mesh.check()
 
@@ -300,6 +301,18 @@ def _point_sets(m, fmt, n_points, source):
         for key, a in m.point_data.items():
             for i, name in enumerate(_set_names(key, [a])):
                 yield name, np.flatnonzero(np.asarray(a).ravel() == i)
+
+
+def _scalar_point_data(m, n_points):
+    """Real scalar nodal fields of the file (e.g. a level set), by name."""
+    out = {}
+    for key, a in (m.point_data or {}).items():
+        a = np.asarray(a)
+        if key in ("point_tags", "gmsh:dim_tags") or a.dtype.kind != "f":
+            continue
+        if a.ndim == 1 and len(a) == n_points or a.ndim == 2 and a.shape == (n_points, 1):
+            out[key] = a.reshape(n_points).astype(float)
+    return out
 
 
 def _check_group_nodes(mesh):

@@ -64,14 +64,16 @@ def _refine_once(mesh):
     edge_groups = {name: _split_group(edges, h)
                    for (name, edges), h in zip(mesh.edge_groups.items(), halves[1:])}
     children = np.arange(4)
+    points = np.concatenate([mesh.points, edge_points, inner_points.reshape(-1, 2)])
     return RawMesh(
-        points=np.concatenate([mesh.points, edge_points, inner_points.reshape(-1, 2)]),
+        points=points,
         cell_type=mesh.cell_type,
         cells=cells,
         cell_groups={name: (4 * np.asarray(c, dtype=np.int64)[:, None] + children).ravel()
                      for name, c in mesh.cell_groups.items()},
         edge_groups=edge_groups,
         node_groups={name: np.array(n, copy=True) for name, n in mesh.node_groups.items()},
+        point_data=_refine_point_data(mesh, ref, table, cells, len(points)),
         source=mesh.source if "(refined)" in mesh.source else f"{mesh.source} (refined)")
 
 
@@ -100,6 +102,20 @@ def _split_edges(points, edge_lists, first):
     a_is_hi = (rows[:, 0] > rows[:, 1]).astype(np.int64)
     near = first + 2 * u[:, None] + np.c_[a_is_hi, 1 - a_is_hi]        # (rows, 2)
     return np.split(near, np.cumsum([len(e) for e in edge_lists])[:-1]), coords
+
+
+def _refine_point_data(mesh, ref, table, cells, n_points):
+    """Nodal fields at the new nodes: each parent's interpolation at its children's nodes."""
+    if not mesh.point_data:
+        return {}
+    shape = ref.shape(table["child_xi"].reshape(-1, 2))                # (4 nn, nn)
+    out = {}
+    for name, f in mesh.point_data.items():
+        values = np.zeros(n_points)
+        values[cells.ravel()] = np.einsum("in,en->ei", shape, f[mesh.cells]).ravel()
+        values[: len(f)] = f
+        out[name] = values
+    return out
 
 
 def _inner_points(mesh, xi):

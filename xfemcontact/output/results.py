@@ -22,6 +22,7 @@ def summary(model, converged, reason, outcomes):
                  "cells": mpi.allreduce(len(model.mesh.cells)),
                  "nodes": mpi.allreduce(int(model.mesh.node_owned.sum()))},
         "dofs": dict(model.layout.counts(), total=model.layout.global_size),
+        "partition": model.mesh.partition,
         "iterations": iterations(model),
         "residual_history": list(model.newton_test.history if snes else []),
         "warnings": list(model.loops.warnings) if model.loops else [],
@@ -29,6 +30,8 @@ def summary(model, converged, reason, outcomes):
         "geometry": geometry_summary(model),
         "multipliers": model.space.summary() if model.space is not None else None,
         "timings": {k: round(v, 4) for k, v in timing.TIMINGS.items()},
+        "solver_events": timing.solver_events(model.comm),
+        "memory": {"peak_mb_per_process": timing.peak_memory_mb(model.comm)},
         "tests": [o.as_dict() for o in outcomes],
         "interface": interface_table(model),
     }
@@ -123,7 +126,8 @@ def write_outputs(folder, model, u, values, converged, reason, outcomes):
         resi_frot = getattr(case.contact, "resi_frot", None) if model.loops else None
         files += plots.write(folder, case.title, post=post, table=table,
                              history=summary_now["residual_history"], iterations=summary_now["iterations"],
-                             criterion=criterion, resi_frot=resi_frot)
+                             criterion=criterion, resi_frot=resi_frot, young=case.material.E,
+                             friction=bool(model.has_contact and model.law.friction))
     report.write(folder, summary_now, files, case_source=model.case.source, warnings=warnings)
 
 

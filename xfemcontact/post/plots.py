@@ -65,6 +65,8 @@ def multipliers_figure(cols, title, curves=None, fields=("LAGS_C", "LAGS_F1")):
                             label=f"{f} reference{tag}")
             ax.plot(cols["s"][r], cols[f][r], "o", ms=4, mfc="none", color=f"C{k}",
                     label=f"{f} computed{tag}")
+            if not has_ref:
+                ax.plot(cols["s"][r], cols[f][r], "-", lw=0.6, alpha=0.5, color=f"C{k}")
         ax.set_ylabel(f"{f} ({unit})")
         ax.set_title(f"{f} along the interface")
         ax.grid(alpha=0.3)
@@ -72,11 +74,12 @@ def multipliers_figure(cols, title, curves=None, fields=("LAGS_C", "LAGS_F1")):
         if has_ref:
             ex = axes[i, 1]
             if f + "_err" in cols:
+                emax = float(np.abs(cols[f + "_err"]).max()) if len(cols[f + "_err"]) else 0.0
                 for k, r in enumerate(rows):
                     ex.plot(cols["s"][r], cols[f + "_err"][r], ".-", ms=4, lw=0.8, color=f"C{k}",
-                            label=f"{f} error" + (f" (curve {k})" if len(rows) > 1 else ""))
-                err = np.abs(cols[f + "_err"])
-                ex.set_title(f"error: computed - reference (max |error| {err.max():.3g} {unit})")
+                            label=f"{f} error" + (f" (curve {k})" if len(rows) > 1 else "")
+                            + f", max |error| {emax:.3g}" + (f" {unit}" if unit != "-" else ""))
+                ex.set_title(f"{f} error = computed - reference")
                 ex.axhline(0.0, color="0.5", lw=0.8)
                 ex.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
                 ex.legend(loc="best", fontsize=8)
@@ -86,16 +89,18 @@ def multipliers_figure(cols, title, curves=None, fields=("LAGS_C", "LAGS_F1")):
             ex.grid(alpha=0.3)
     for ax in axes[-1]:
         ax.set_xlabel("s, curvilinear abscissa along the interface (m)")
-    fig.suptitle(f"{title}\ninterface multipliers: computed (markers) and reference (line)")
+    fig.suptitle(f"{title}\ninterface multipliers: computed (markers)"
+                 + (" and reference (line)" if has_ref else ""))
     return fig
 
 
 # -- (b) deformed mesh ------------------------------------------------------------------
-def deformed_figure(points, blocks, point_data, cell_data, title, field="SIYY"):
+def deformed_figure(points, blocks, point_data, cell_data, title, field="SIYY", stress_scale=0.0):
     """The deformed post mesh coloured by the cell field ``field``.
 
     ``points (np, 2)`` m; ``blocks`` [(meshio type, conn)]; ``point_data`` with
-    DX, DY (m) and NFISSU; ``cell_data`` {name: [per block]}.
+    DX, DY (m) and NFISSU; ``cell_data`` {name: [per block]}; ``stress_scale``
+    (Pa, e.g. E max|u| / size): the colour range spans at least 1e-3 of it.
     """
     from matplotlib.collections import LineCollection, PolyCollection
 
@@ -112,7 +117,7 @@ def deformed_figure(points, blocks, point_data, cell_data, title, field="SIYY"):
     if values is not None:
         pc.set_array(values)
         pc.set_cmap("viridis")
-        pc.set_clim(*_colour_limits(values))
+        pc.set_clim(*_colour_limits(values, stress_scale))
     ax.add_collection(pc)
     nf = point_data.get("NFISSU")
     if nf is not None:
@@ -121,27 +126,28 @@ def deformed_figure(points, blocks, point_data, cell_data, title, field="SIYY"):
             if len(segs):
                 ax.add_collection(LineCollection(segs, **SIDE_STYLE[side]))
         if (nf != 0).any():
-            ax.legend(loc="upper right", fontsize=8, framealpha=0.9)
+            ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=2, fontsize=9, frameon=False)
     ax.autoscale_view()
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     if values is not None:
         cb = fig.colorbar(pc, ax=ax, shrink=0.85)
-        cb.set_label(f"{field} ({FIELD_UNITS.get(field, '')}), mean per cell and sub-cell")
+        cb.set_label(f"{field} ({FIELD_UNITS.get(field, '')}), mean per cell and sub-cell\n"
+                     f"min {values.min():.7g}, max {values.max():.7g}")
         cb.formatter.set_useOffset(False)
         cb.update_ticks()
     how = f"displacements x {scale:.3g}" if scale > 0 else "no displacement"
-    fig.suptitle(f"{title}\ndeformed mesh ({how}, max |u| = {umax:.3g} m), coloured by {field}")
+    fig.suptitle(f"{title}\ndeformed mesh, {how} (max |u| = {umax:.3g} m), coloured by {field}")
     return fig
 
 
-def _colour_limits(v):
-    """Data range, widened to +-0.1 % around the mean when the field is nearly uniform
-    (so round-off does not paint a uniform field in every colour)."""
+def _colour_limits(v, scale=0.0):
+    """Data range, widened to +-1e-3 max(|mean|, scale) around the mean when the field
+    is nearly uniform (so round-off does not paint a uniform field in every colour)."""
     lo, hi = float(np.min(v)), float(np.max(v))
     mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    floor = 1e-3 * max(abs(mid), 1e-300)
+    floor = 1e-3 * max(abs(mid), scale, 1e-300)
     if half < floor:
         half = floor if mid != 0 else 1.0
     return mid - half, mid + half
@@ -159,30 +165,46 @@ def _interface_edges(blocks, nfissu, side, xd):
 
 
 # -- (c) statuses along s ---------------------------------------------------------------
-def status_figure(cols, title):
-    """Contact and sliding statuses along s (steps), with the gap and slip (twin axes)."""
+def status_figure(cols, title, jump_scale=0.0, friction=True):
+    """Contact and sliding statuses along s (steps), with the gap and slip (twin axes).
+
+    ``jump_scale`` (m): the gap and slip axes span at least +-1e-3 of it (a
+    typical displacement), so round-off jumps show as zero, not as noise.
+    The friction state is -1 where the point is open (no friction), else
+    0 stick / 1 slip.
+    """
     fig = _figure(10, 6.5)
     axes = fig.subplots(2, 1, sharex=True)
     rows = _curves(cols)
-    spec = (("contact", "gap", ("open", "contact")), ("sliding", "slip", ("stick", "slip")))
+    contact = np.asarray(cols["contact"])
+    state = {"contact": contact, "friction": np.where(contact > 0, cols["sliding"], -1)}
+    spec = (("contact", "gap", {0: "open", 1: "contact"}),
+            ("friction", "slip", {-1: "open", 0: "stick", 1: "slip"}))
     for ax, (status, jump, names) in zip(axes, spec):
         tw = ax.twinx()
         for k, r in enumerate(rows):
             tag = f" (curve {k})" if len(rows) > 1 else ""
-            ax.step(cols["s"][r], cols[status][r], where="post", color=f"C{k}", lw=1.8,
+            ax.step(cols["s"][r], state[status][r], where="post", color=f"C{k}", lw=1.8,
                     label=f"{status} status{tag}")
-            ax.plot(cols["s"][r], cols[status][r], "o", ms=3, color=f"C{k}")
+            ax.plot(cols["s"][r], state[status][r], "o", ms=3, color=f"C{k}")
             tw.plot(cols["s"][r], cols[jump][r], "-", color="0.55", lw=1.0, label=f"{jump}{tag}")
-        ax.set_yticks([0, 1], names)
-        ax.set_ylim(-0.15, 1.15)
+        ax.set_yticks(list(names), list(names.values()))
+        ax.set_ylim(min(names) - 0.15, max(names) + 0.15)
         tw.set_ylabel(f"{jump} (m)", color="0.4")
+        jmax = float(np.abs(cols[jump]).max()) if len(cols[jump]) else 0.0
+        floor = max(1e-3 * jump_scale, 1.05 * jmax)
+        if floor > 0:
+            lo, hi = tw.get_ylim()
+            tw.set_ylim(min(lo, -floor), max(hi, floor))
         tw.ticklabel_format(axis="y", style="sci", scilimits=(-3, 3))
-        ax.set_title(f"{status} status ({names[1]} = 1) and {jump}: "
-                     f"{int(np.sum(cols[status] > 0))} of {len(cols[status])} points {names[1]}")
+        counts = ", ".join(f"{int(np.sum(state[status] == v))} {n}" for v, n in names.items())
+        what = "friction status (frictionless case)" if status == "friction" and not friction \
+            else f"{status} status"
+        ax.set_title(f"{what} and {jump} at the {len(contact)} interface points: {counts}")
         ax.grid(alpha=0.3)
         h1, l1 = ax.get_legend_handles_labels()
         h2, l2 = tw.get_legend_handles_labels()
-        ax.legend(h1 + h2, l1 + l2, loc="center right", fontsize=8)
+        ax.legend(h1 + h2, l1 + l2, loc="best", fontsize=8)
     axes[-1].set_xlabel("s, curvilinear abscissa along the interface (m)")
     fig.suptitle(f"{title}\ncontact and friction statuses along the interface")
     return fig
@@ -219,6 +241,9 @@ def convergence_figure(history, iterations, title, criterion=None, resi_frot=Non
         start += len(seg)
     if criterion:
         ax.axhline(criterion, color="k", ls="--", lw=1, label=f"criterion {criterion:.2g}")
+    from matplotlib.ticker import MaxNLocator
+
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel("residual evaluation (all Newton solves in order)")
     ax.set_ylabel("Newton residual norm |R| (N)")
     ax.set_title("Newton residuals, solve after solve")
@@ -250,20 +275,30 @@ def _solve_labels(contact, n):
 
 # -- driver ----------------------------------------------------------------------------
 def write(folder, title, post=None, table=None, history=None, iterations=None,
-          criterion=None, resi_frot=None):
-    """Draw every plot the data allows into ``folder`` (rank 0); returns the names."""
+          criterion=None, resi_frot=None, young=0.0, friction=True):
+    """Draw every plot the data allows into ``folder`` (rank 0); returns the names.
+
+    ``young`` (Pa) sets the stress scale of the colour range (E max|u| / size).
+    """
     written = []
+    umax, size = 0.0, 1.0
+    if post is not None and len(post.points):
+        umax = float(np.hypot(post.point_data["DX"], post.point_data["DY"]).max())
+        size = float(np.max(post.points.max(axis=0) - post.points.min(axis=0))) or 1.0
 
     def save(fig, name):
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        FigureCanvasAgg(fig).draw()      # a first layout pass: tick labels settle
         fig.savefig(folder.file(name))
         written.append(name)
 
     if table is not None and len(table.columns["s"]):
         save(multipliers_figure(table.columns, title, table.curves), "plot_multipliers.png")
-        save(status_figure(table.columns, title), "plot_status.png")
+        save(status_figure(table.columns, title, umax, friction), "plot_status.png")
     if post is not None:
-        save(deformed_figure(post.points, post.blocks, post.point_data, post.cell_data, title),
-             "plot_deformed.png")
+        save(deformed_figure(post.points, post.blocks, post.point_data, post.cell_data, title,
+                             stress_scale=young * umax / size), "plot_deformed.png")
     if history is not None and iterations and len(iterations.get("newton_per_solve", [])) > 1:
         save(convergence_figure(history, iterations, title, criterion, resi_frot), "plot_convergence.png")
     return written

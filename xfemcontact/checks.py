@@ -1,0 +1,412 @@
+"""Checks of a case against its mesh, before any heavy work.
+
+:func:`preflight` runs on the input mesh (the :class:`~xfemcontact.mesh.raw.RawMesh`
+that rank 0 reads or generates, before it is distributed) and broadcasts its
+outcome, so that every process raises the same one-line error, or gets the same
+warnings: the errors it raises are *collective* (reported once, exit code 2,
+no MPI_Abort).  In order:
+
+1. the mesh can be built (read, generated, refined): :class:`MeshError` of the
+   mesh reader, prefixed with the case file and ``mesh.file``;
+2. the load groups exist in the mesh (:meth:`Case.check_groups`);
+3. the imposed displacements can be evaluated at the nodes of their groups
+   (a formula giving NaN or inf names its key and the first bad node);
+4. the level set can be evaluated at every node; :func:`levelset_meets_domain`
+   (a level set of one sign: warning, the case is solved without interface)
+   and :func:`levelset_without_sign_change` (LN = 0 on a whole cell, or along
+   an edge with the same side on both faces: what a crack or an interface
+   ending inside the domain looks like with a normal level set alone; error);
+5. :func:`rigid_body_modes`: the imposed displacements hold every body (the
+   whole mesh, or each side of a ``law = "free"`` interface) against
+   translations and rotation.
+
+The functions of steps 4 and 5 take plain arrays and can also be called on the
+distributed mesh (``comm`` for the global reductions).
+"""
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from xfemcontact.errors import CaseError, FormulaError, GeometryError, MeshError, XfcError
+
+#: |LN| <= ROUNDOFF * (largest |LN| in the cells holding the node) counts as 0
+#: (rule 1 of xfemcontact.xfem.levelset.readjust)
+ROUNDOFF = 1e-12
+#: positions closer than this fraction of the mesh size are the same position
+SAME_POSITION = 1e-9
+
+_ERRORS = {cls.__name__: cls for cls in (CaseError, FormulaError, GeometryError, MeshError,
+                                          XfcError)}
+
+
+@dataclass
+class Preflight:
+    """What :func:`preflight` found: warnings (one line each) and whether to keep the interface."""
+
+    warnings: list = field(default_factory=list)
+    interface: bool = True       # False: the level set does not meet the domain
+
+
+# --- the whole check, collective ----------------------------------------------------------
+
+def build_mesh(case, comm=None):
+    """The case's input mesh on rank 0 (None elsewhere); a failure is a collective MeshError.
+
+    Wraps :func:`xfemcontact.model.build_raw_mesh`.
+    """
+    from xfemcontact.model import build_raw_mesh
+
+    rank = comm.rank if comm is not None else 0
+    outcome = raw = None
+    if rank == 0:
+        try:
+            raw = build_raw_mesh(case)
+        except XfcError as exc:
+            key = "mesh.file" if case.mesh.file is not None else "mesh.rectangle"
+            outcome = (type(exc).__name__, f"{case.source}: {key}: {exc}")
+    _raise_shared(outcome, comm)
+    return raw
+
+
+def preflight(case, raw, comm=None):
+    """Check ``case`` against its input mesh ``raw`` (rank 0; None elsewhere).
+
+    ``comm``: an mpi4py communicator, or None when serial.  Call it on every
+    process.  Raises the same :class:`XfcError` (collective) everywhere, or
+    returns the same :class:`Preflight` everywhere.
+    """
+    rank = comm.rank if comm is not None else 0
+    outcome = None
+    if rank == 0:
+        try:
+            outcome = ("ok", _preflight(case, raw))
+        except XfcError as exc:
+            outcome = (type(exc).__name__, str(exc))
+    if comm is not None and comm.size > 1:
+        outcome = comm.bcast(outcome, root=0)
+    if outcome[0] == "ok":
+        return outcome[1]
+    _raise_shared(outcome, None)
+
+
+def _raise_shared(outcome, comm):
+    if comm is not None and comm.size > 1:
+        outcome = comm.bcast(outcome, root=0)
+    if outcome is None:
+        return
+    kind, message = outcome
+    raise _ERRORS.get(kind, XfcError)(message, collective=True)
+
+
+def _preflight(case, raw):
+    result = Preflight()
+    case.check_groups(raw.group_names())
+    used = np.unique(raw.cells)
+    x = raw.points
+    for bc in case.dirichlet:
+        nodes = _group_nodes(raw, bc.groups)
+        for name, formula in bc.components.items():
+            formula(x=x[nodes, 0], y=x[nodes, 1])          # FormulaError names key and node
+    phi = None
+    itf = case.interface
+    if itf is not None and itf.level_set is not None:
+        values = itf.level_set(x=x[used, 0], y=x[used, 1])
+        phi = np.zeros(len(x))
+        phi[used] = values
+        phi = _roundoff(raw.cells, phi)
+        key = "interface.level_set"
+        warning = levelset_meets_domain(phi[used], x[used], source=case.source, key=key)
+        if warning:
+            result.warnings.append(warning)
+            result.interface = False
+            phi = None
+        else:
+            problem = levelset_without_sign_change(raw.cells, raw.n_vertices_per_cell, phi, x,
+                                                   source=case.source, key=key)
+            if problem:
+                raise GeometryError(problem)
+    law = itf.law if itf is not None and phi is not None else None
+    problem = rigid_body_modes(case, raw, phi, law)
+    if problem:
+        raise CaseError(problem)
+    return result
+
+
+def _group_nodes(raw, groups):
+    return np.unique(np.concatenate([raw.group_nodes(g) for g in groups]))
+
+
+def _roundoff(cells, phi):
+    """``phi`` with |LN| <= ROUNDOFF * (largest |LN| of the cells holding the node) set to 0."""
+    cmax = np.abs(phi[cells]).max(axis=1)
+    scale = np.zeros(len(phi))
+    for col in cells.T:
+        np.maximum.at(scale, col, cmax)
+    out = phi.copy()
+    out[np.abs(phi) <= ROUNDOFF * scale] = 0.0
+    return out
+
+
+# --- the level set ------------------------------------------------------------------------
+
+def levelset_meets_domain(phi, x=None, comm=None, source="<case>", key="interface.level_set"):
+    """A warning (one line) when LN does not take both signs on the mesh, else None.
+
+    ``phi``: LN at the nodes (of this process when ``comm``, an mpi4py
+    communicator, is given: the extremes are then reduced over all processes);
+    ``x`` ``(n, 2)``: their coordinates, to say where LN touches 0.  Values
+    that must count as 0 should already be 0 (readjustment rule 1).  Without
+    a negative or without a positive value there is no interface: the case
+    can be solved as if it had none.
+    """
+    phi = np.asarray(phi, dtype=float)
+    low = float(phi.min()) if len(phi) else np.inf
+    high = float(phi.max()) if len(phi) else -np.inf
+    if comm is not None and comm.size > 1:
+        from mpi4py import MPI
+
+        low = comm.allreduce(low, op=MPI.MIN)
+        high = comm.allreduce(high, op=MPI.MAX)
+    if low < 0 < high or not np.isfinite(low) or not np.isfinite(high):
+        return None
+    prefix = f"{source}: {key}: "
+    if low > 0 or high < 0:
+        sign = ">" if low > 0 else "<"
+        return (prefix + f"the interface does not meet the domain (LN {sign} 0 at every node, "
+                f"from {low:.4g} to {high:.4g}): solving without interface")
+    sign = ">=" if high > 0 else "<="
+    zero = np.flatnonzero(phi == 0)
+    near = ""
+    if x is not None and len(zero) and (comm is None or comm.size == 1):
+        near = f" at {len(zero)} node(s), near ({x[zero[0], 0]:.6g}, {x[zero[0], 1]:.6g})"
+    return (prefix + f"the interface only touches the domain (LN {sign} 0 at every node, "
+            f"LN = 0{near}; no side with LN {'<' if high > 0 else '>'} 0): "
+            f"solving without interface")
+
+
+def levelset_without_sign_change(cells, nv, phi, x, source="<case>", key="interface.level_set"):
+    """An error message when LN is 0 where it does not separate two sides, else None.
+
+    ``cells`` ``(nc, nn)`` node indices (vertices first, then the mid-edge node of
+    edge ``k`` = vertices ``k``, ``k+1``), ``nv`` vertices per cell, ``phi`` LN
+    at the nodes (round-off already set to 0), ``x`` the node coordinates.
+    Refused: a cell whose nodes are all 0, and an interior edge whose three
+    nodes are 0 while the two cells on it are on the same side -- a normal
+    level set alone cannot describe an interface that ends inside the domain
+    (a crack): its zero line would have to stop changing sign somewhere.
+    """
+    pc = phi[cells]
+    pos, neg = (pc > 0).any(axis=1), (pc < 0).any(axis=1)
+    flat = ~pos & ~neg
+    prefix = f"{source}: {key}: "
+    if flat.any():
+        c = int(np.flatnonzero(flat)[0])
+        ctr = x[cells[c]].mean(axis=0)
+        return (prefix + f"LN = 0 at every node of cell {c} near ({ctr[0]:.6g}, {ctr[1]:.6g}): "
+                         f"the interface must be a curve with LN < 0 on one side and LN > 0 on "
+                         f"the other")
+    c1, c2, enodes = _interior_edges(cells, nv)
+    if len(c1) == 0:
+        return None
+    side = np.where(pos & neg, 0, np.where(pos, 1, -1))
+    zero = np.all(phi[enodes] == 0, axis=1)
+    same = zero & (side[c1] == side[c2]) & (side[c1] != 0)
+    if not same.any():
+        return None
+    k = int(np.flatnonzero(same)[0])
+    mid = x[enodes[k, 2]]
+    count = int(same.sum())
+    s = "<" if side[c1[k]] < 0 else ">"
+    return (prefix + f"LN = 0 along {count} edge(s) without changing sign (LN {s} 0 on both "
+                     f"sides), first near ({mid[0]:.6g}, {mid[1]:.6g}): an interface must "
+                     f"separate LN < 0 from LN > 0 and cross the whole domain or close on "
+                     f"itself (cracks and interfaces ending inside the domain are not "
+                     f"supported)")
+
+
+def _cell_edges(cells, nv):
+    """``(nc * nv, 3)`` nodes (a, b, mid) of every cell edge, cell by cell."""
+    k = np.arange(nv)
+    return np.stack([cells[:, k], cells[:, (k + 1) % nv], cells[:, nv + k]], axis=-1).reshape(-1, 3)
+
+
+def _interior_edges(cells, nv):
+    """Edges shared by two cells: ``(c1, c2, nodes (k, 3))``, found by their mid-node."""
+    edges = _cell_edges(cells, nv)
+    owner = np.repeat(np.arange(len(cells)), nv)
+    order = np.argsort(edges[:, 2], kind="stable")
+    mids = edges[order, 2]
+    pair = np.flatnonzero(mids[1:] == mids[:-1])
+    a, b = order[pair], order[pair + 1]
+    return owner[a], owner[b], edges[a]
+
+
+# --- rigid-body modes ---------------------------------------------------------------------
+
+def rigid_body_modes(case, raw, phi=None, law=None):
+    """A one-line error message when a rigid-body motion is left free, else None.
+
+    Bodies: the connected parts of the mesh (cells sharing an edge); with an
+    interface of ``law = "free"`` (and ``phi``, LN at the nodes of ``raw``),
+    each side of it is a separate body.  With "bonded" the interface is
+    glued; with "contact" it is taken as connected too, although it transmits
+    compression only: a body held by contact alone is accepted (if the contact
+    opens, the solve fails and says so).
+
+    A node of a Dirichlet group holds the body of its side (LN >= 0: the +
+    side); where the group's edge reaches the interface, or for a node group,
+    both sides (their Heaviside dofs are imposed too, see
+    :mod:`xfemcontact.dofs.constraints`).  A body is held when DX is imposed
+    somewhere, DY somewhere, and the rotation is blocked: DX at two different
+    y or DY at two different x.
+    """
+    cells, nv, x = raw.cells, raw.n_vertices_per_cell, raw.points
+    nc = len(cells)
+    separate = law == "free" and phi is not None
+    if separate:
+        pc = phi[cells]
+        has = np.stack([(pc < 0).any(axis=1), (pc > 0).any(axis=1)], axis=1)   # [-, +]
+        has[~has.any(axis=1), 1] = True
+    else:
+        has = np.zeros((nc, 2), bool)
+        has[:, 1] = True
+    piece = np.arange(2 * nc).reshape(nc, 2)          # piece (cell, side): 2 c + (side > 0)
+    c1, c2, enodes = _interior_edges(cells, nv)
+    links = []
+    for s in (0, 1):
+        ok = has[c1, s] & has[c2, s]
+        if separate:
+            e = phi[enodes]
+            ok &= (e < 0).any(axis=1) if s == 0 else (e > 0).any(axis=1)
+        links.append((piece[c1[ok], s], piece[c2[ok], s]))
+    label = _components(2 * nc, links)
+    exists = has.ravel()
+
+    # constrained pieces per component: for DX the y, for DY the x of the held nodes
+    incid = _node_cells(cells, len(x))
+    lo = {c: np.full(2 * nc, np.inf) for c in ("DX", "DY")}
+    hi = {c: np.full(2 * nc, -np.inf) for c in ("DX", "DY")}
+    groups = {c: {} for c in ("DX", "DY")}
+    for bc in case.dirichlet:
+        nodes = _group_nodes(raw, bc.groups)
+        both = np.zeros(len(x), bool)
+        if separate:
+            both[_interface_nodes(raw, bc.groups, phi)] = True
+        node_side = (phi >= 0).astype(int) if separate else np.ones(len(x), int)
+        cell_of, node_of = _incident(incid, nodes)
+        sides = [node_side[node_of]]
+        if separate:
+            sides.append(np.where(both[node_of], 1 - node_side[node_of], -1))
+        held_pieces, held_nodes = [], []
+        for s in sides:
+            keep = s >= 0
+            p = piece[cell_of[keep], s[keep]]
+            live = exists[p]
+            held_pieces.append(p[live])
+            held_nodes.append(node_of[keep][live])
+        body_of = label[np.concatenate(held_pieces)]
+        held = np.concatenate(held_nodes)
+        for comp in bc.components:
+            # a rigid motion (a - theta y, b + theta x): DX fixes a - theta y, DY b + theta x
+            at = x[held, 1] if comp == "DX" else x[held, 0]
+            np.minimum.at(lo[comp], body_of, at)
+            np.maximum.at(hi[comp], body_of, at)
+            for k in np.unique(body_of):
+                groups[comp].setdefault(int(k), set()).update(bc.groups)
+
+    size = float(np.ptp(x[np.unique(cells)], axis=0).max()) if nc else 1.0
+    tol = SAME_POSITION * max(size, 1e-300)
+    bodies = np.unique(label[exists])
+    for body in bodies:
+        problem = _free_motions(body, lo, hi, groups, tol)
+        if problem:
+            return f"{case.source}: dirichlet: rigid-body motion not prevented" + \
+                _which_body(body, label, exists, cells, x, len(bodies), separate) + \
+                f": {problem}"
+    return None
+
+
+def _components(n, links):
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    a = np.concatenate([l[0] for l in links]) if links else np.zeros(0, int)
+    b = np.concatenate([l[1] for l in links]) if links else np.zeros(0, int)
+    graph = coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n)).tocsr()
+    return connected_components(graph, directed=False)[1]
+
+
+def _node_cells(cells, n):
+    """CSR node -> cells incidence: ``(indptr, cell indices)``."""
+    node = cells.ravel()
+    order = np.argsort(node, kind="stable")
+    cell = (order // cells.shape[1])
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.add.at(indptr, node + 1, 1)
+    return np.cumsum(indptr), cell
+
+
+def _incident(incid, nodes):
+    """``(cells, nodes)``: every (cell, node) pair with ``node`` in ``nodes``."""
+    indptr, cell = incid
+    start, stop = indptr[nodes], indptr[nodes + 1]
+    count = stop - start
+    node_of = np.repeat(nodes, count)
+    offset = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+    return cell[np.repeat(start, count) + offset], node_of
+
+
+def _interface_nodes(raw, groups, phi):
+    """Nodes of ``groups`` that hold both sides: node groups, edges reaching the interface."""
+    out = []
+    for g in groups:
+        if g in raw.node_groups:
+            out.append(np.asarray(raw.node_groups[g]).ravel())
+        if g in raw.edge_groups:
+            e = np.asarray(raw.edge_groups[g]).reshape(-1, 3)
+            p = phi[e]
+            touch = ~(np.all(p > 0, axis=1) | np.all(p < 0, axis=1))
+            out.append(e[touch].ravel())
+    return np.concatenate(out).astype(np.int64) if out else np.zeros(0, np.int64)
+
+
+def _free_motions(body, lo, hi, groups, tol):
+    """What is free for component ``body``, in words, or None."""
+    has = {c: np.isfinite(lo[c][body]) for c in ("DX", "DY")}
+    spread = {c: has[c] and hi[c][body] - lo[c][body] > tol for c in ("DX", "DY")}
+    missing = [c for c in ("DX", "DY") if not has[c]]
+    rotation = not (spread["DX"] or spread["DY"])
+    if missing:
+        axes = " and ".join(c[1].lower() for c in missing)
+        what = f"translation{'s' if len(missing) > 1 else ''} in {axes}"
+        if rotation:
+            what += " and rotation are free"
+        else:
+            what += " is free" if len(missing) == 1 else " are free"
+        fix = " and ".join(missing)
+        where = ""
+        if rotation and len(missing) == 1:
+            other = "DY" if missing[0] == "DX" else "DX"
+            where = f" (at a point where {other} is not imposed, or at two points)"
+        return f"nothing imposes {' or '.join(missing)} ({what}): impose {fix} somewhere{where}"
+    if rotation:
+        y0, x0 = lo["DX"][body], lo["DY"][body]
+        dx = ", ".join(sorted(groups["DX"].get(int(body), ())))
+        dy = ", ".join(sorted(groups["DY"].get(int(body), ())))
+        return (f"rotation is free: DX is imposed only at y = {y0:.6g} ({dx}) and DY only at "
+                f"x = {x0:.6g} ({dy}); impose DX at another y, or DY at another x")
+    return None
+
+
+def _which_body(body, label, exists, cells, x, n_bodies, separate):
+    if n_bodies == 1:
+        return ""
+    mine = np.flatnonzero((label == body) & exists)
+    cell = mine // 2
+    ctr = x[cells[cell]].mean(axis=(0, 1))
+    where = f"{len(cell)} cell(s) around ({ctr[0]:.4g}, {ctr[1]:.4g})"
+    if separate:
+        side = "LN > 0" if mine[0] % 2 else "LN < 0"
+        return (f" for the part on the {side} side of the interface ({where}; with "
+                f"law = \"free\" each side is a separate body)")
+    return f" for the part of the mesh made of {where} (it shares no edge with the rest)"

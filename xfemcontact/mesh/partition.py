@@ -1,0 +1,78 @@
+"""METIS partitioning of the mesh, handed to DMPlex through a shell partitioner.
+
+Debian's PETSc has no ParMETIS partitioner and Debian's MUMPS no METIS ordering;
+METIS itself (through pymetis) partitions the cell dual graph (cells sharing an
+edge) on rank 0, with weights so that cut cells, which carry sub-cell
+quadrature and interface terms, count for their extra work.  Any other PETSc
+partitioner stays available with ``-petscpartitioner_type ptscotch|simple``.
+"""
+import numpy as np
+
+#: work of a cut cell relative to a plain one (sub-cells: ~2 x 3 sub-triangles
+#: of 12-25 points, plus the interface terms)
+CUT_CELL_WEIGHT = 8
+
+
+def dual_graph(cell_vertices):
+    """CSR dual graph (``xadj``, ``adjncy``) of cells sharing an edge.
+
+    ``cell_vertices (ne, nv)``: vertex indices of each cell, counter-clockwise.
+    """
+    ne, nv = cell_vertices.shape
+    a = cell_vertices
+    b = np.roll(cell_vertices, -1, axis=1)
+    lo, hi = np.minimum(a, b).ravel(), np.maximum(a, b).ravel()
+    key = lo.astype(np.int64) * (int(cell_vertices.max()) + 1) + hi
+    cell = np.repeat(np.arange(ne), nv)
+    order = np.argsort(key, kind="stable")
+    k, c = key[order], cell[order]
+    twin = np.nonzero(k[1:] == k[:-1])[0]
+    i, j = c[twin], c[twin + 1]
+    src = np.r_[i, j]
+    dst = np.r_[j, i]
+    order = np.argsort(src, kind="stable")
+    xadj = np.r_[0, np.cumsum(np.bincount(src, minlength=ne))]
+    return xadj.astype(np.int64), dst[order].astype(np.int64)
+
+
+def metis_parts(cell_vertices, nparts, weights=None):
+    """Part of every cell (``(ne,)`` ints in [0, nparts))."""
+    if nparts == 1:
+        return np.zeros(len(cell_vertices), dtype=np.int64)
+    import pymetis
+
+    xadj, adjncy = dual_graph(cell_vertices)
+    vw = None if weights is None else np.asarray(weights, dtype=np.int64).tolist()
+    _, parts = pymetis.part_graph(nparts, xadj=xadj.tolist(), adjncy=adjncy.tolist(), vweights=vw)
+    return np.asarray(parts, dtype=np.int64)
+
+
+def cut_cell_weights(raw, levelset):
+    """Cell weights: ``CUT_CELL_WEIGHT`` for cells whose nodes change sign, else 1."""
+    if levelset is None:
+        return np.ones(len(raw.cells), dtype=np.int64)
+    phi = levelset(x=raw.points[:, 0], y=raw.points[:, 1])[raw.cells]
+    cut = (phi.max(axis=1) >= 0) & (phi.min(axis=1) <= 0)
+    return np.where(cut, CUT_CELL_WEIGHT, 1).astype(np.int64)
+
+
+def shell_partition(dm, cell_vertices, weights, comm):
+    """Set ``dm``'s partitioner to the METIS partition (computed on rank 0).
+
+    Returns the per-process (cells, weight) on every rank.
+    """
+    from xfemcontact._petsc import PETSc
+
+    mpi = comm.tompi4py()
+    n = mpi.size
+    if mpi.rank == 0:
+        parts = metis_parts(cell_vertices, n, weights)
+        order = np.argsort(parts, kind="stable")
+        sizes = np.bincount(parts, minlength=n)
+        load = np.bincount(parts, weights=weights, minlength=n)
+    else:
+        order, sizes, load = np.zeros(0, np.int64), np.zeros(n, np.int64), None
+    part = dm.getPartitioner()
+    part.setType(PETSc.Partitioner.Type.SHELL)
+    part.setShellPartition(n, sizes.astype(PETSc.IntType), order.astype(PETSc.IntType))
+    return mpi.bcast((sizes.tolist(), None if load is None else load.tolist()), root=0)
