@@ -20,7 +20,7 @@ from xfemcontact.post import plots
 ARC_LENGTH = 10.797891203332386           # SSNV509 interface length (m)
 XC, YC = 5.0, 11.77
 OUTPUT_ALL = '\n[output]\nformats = ["xdmf", "vtu"]\n'
-NO_PLOTS = '\n[output]\nformats = ["xdmf", "vtu"]\nplots = false\n'
+NO_PLOTS = '\n[output]\nformats = ["xdmf", "vtu", "med"]\nplots = false\n'
 TIMEOUT = 120
 PNGS = ("plot_multipliers.png", "plot_deformed.png", "plot_status.png", "plot_convergence.png")
 
@@ -148,7 +148,11 @@ def test_interface_copies_lie_on_the_interface(ssnv509a):
     minus = m.points[nf == -1, :2]
     plus = m.points[nf == 1, :2]
     np.testing.assert_allclose(np.sort(minus, axis=0), np.sort(plus, axis=0), atol=1e-12)
-    assert np.abs(level_set(minus[:, 0], minus[:, 1])).max() < 1e-8
+    # ends and mid-points of the segments are on LN = 0, the quarter points (mid-nodes of the
+    # sub-triangle edges on the interface) within O(h^3) of it
+    dist = np.abs(level_set(minus[:, 0], minus[:, 1])) / (2 * np.sqrt(64.27))
+    assert dist.max() < 1e-6
+    assert (dist < 1e-12).sum() >= 29 + 28
     # sub-triangles of the - side use only - copies, and conversely
     tri = m.cells_dict["triangle6"]
     side = m.cell_data_dict["side"]["triangle6"]
@@ -180,6 +184,20 @@ def test_displacement_of_each_side_opening(opening):
     # open everywhere: no contact, no multiplier
     assert not m.point_data["contact"].any()
     assert np.abs(m.point_data["LAGS_C"]).max() < 1e-12
+
+
+def test_med_file_has_the_nfissu_groups(opening):
+    """fields.med (Salome, code_aster): 2-D points, the same fields, node groups NM / NP / NFISSU."""
+    med = meshio.read(opening / "fields.med")
+    vtu = post_mesh(opening)
+    assert med.points.shape[1] == 2
+    np.testing.assert_array_equal(med.points, vtu.points[:, :2])
+    assert [c.type for c in med.cells] == [c.type for c in vtu.cells]
+    assert med.point_tags == {1: ["NFISSU", "NM"], 2: ["NFISSU", "NP"]}
+    nf = vtu.point_data["NFISSU"]
+    np.testing.assert_array_equal(med.point_data["point_tags"], np.select([nf == -1, nf == 1], [1, 2], 0))
+    np.testing.assert_array_equal(med.point_data["DY"], vtu.point_data["DY"])
+    np.testing.assert_array_equal(med.cell_data["SIYY"][1], vtu.cell_data["SIYY"][1])
 
 
 def test_multipliers_at_interface_points_match_the_table(ssnv509a):
@@ -274,21 +292,20 @@ def test_interface_csv_abscissa_and_columns(ssnv509a):
 
 
 def test_chain_open_closed_and_several_curves():
-    """A closed square loop (least start first) and an open polyline, shuffled."""
+    """A closed square loop, an open polyline oriented right to left, shuffled."""
     sq = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float) + [5, 5]
-    loop = [(sq[i], sq[(i + 1) % 4]) for i in range(4)]
-    line = [(np.array([x, 0.0]), np.array([x + 1, 0.0])) for x in range(3)]
+    loop = [(sq[i], sq[(i + 1) % 4]) for i in (1, 2, 3, 0)]        # starts at (6, 5)
+    line = [(np.array([x + 1, 0.0]), np.array([x, 0.0])) for x in (2, 1, 0)]
     segs = loop + line
     perm = np.array([5, 2, 0, 6, 3, 1, 4])
     start = np.array([segs[i][0] for i in perm])
     stop = np.array([segs[i][1] for i in perm])
-    curve, pos = interface_csv.chain(start, stop)
-    # the open polyline starts at (0, 0): curve 0; the loop starts at (5, 5): curve 1
+    curve, pos, rev = interface_csv.chain(start, stop)
     for i, p in enumerate(perm):
-        if p >= 4:
-            assert curve[i] == 0 and pos[i] == p - 4
-        else:
-            assert curve[i] == 1 and pos[i] == p
+        if p >= 4:      # open: walked from (0, 0), against its orientation: curve 0
+            assert (curve[i], pos[i], rev[i]) == (0, 6 - p, True)
+        else:           # closed: along its orientation from its least point (5, 5): curve 1
+            assert (curve[i], pos[i], rev[i]) == (1, (p + 1) % 4, False)
 
 
 # --- plots and report ----------------------------------------------------------------------

@@ -4,6 +4,14 @@ Every option we do not know goes to PETSc (``-snes_monitor``, ``-ksp_view``,
 ``-log_view``, ``-pc_factor_mat_solver_type``, ``-mat_mumps_icntl_24 1`` ...).
 The case file is the first argument ending in ``.toml``.  Also runs as
 ``python -m xfemcontact`` and under ``mpirun -n P``.
+
+Errors are one line on stderr, ``error: ...`` (see :mod:`xfemcontact.errors`
+and docs/errors.md): a collective error is printed by rank 0 and every process
+returns its exit code; any other error is printed by the process that raised it
+and aborts the run under MPI.  SIGINT and SIGTERM stop the run cleanly
+(:func:`xfemcontact.output.folder.handle_signals`): one line
+``interrupted (SIGTERM): previous results in X kept`` / ``...: no results
+written``, exit code 130 / 143.
 """
 import sys
 

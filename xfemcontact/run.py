@@ -97,7 +97,8 @@ def run(case_path, outdir=None, overwrite=False):
                 samples.update(model.interface_samples() if hasattr(model, "interface_samples") else {})
                 outcomes = checks.evaluate(case.tests, samples, case.reference, comm)
         with timing.phase("output"):
-            results.write_outputs(folder, model, u, values, converged, reason, outcomes)
+            results.write_outputs(folder, model, u, values, converged, reason, outcomes,
+                                  warnings=pre.warnings)
         timing.TIMINGS["total"] = time.perf_counter() - t0
         summary = results.summary(model, converged, reason, outcomes)
         summary["warnings"] = pre.warnings + list(summary.get("warnings") or [])
@@ -188,8 +189,9 @@ def diagnose(model, reason, outdir):
     except Exception:       # no factorisation: nothing to say about it
         pass
     changes = int(loops.status_changes[-1]) if loops is not None and loops.status_changes else None
-    threshold = float(loops.threshold_changes[-1]) if loops is not None and loops.threshold_changes \
-        else None
+    threshold = None
+    if loops is not None and loops.threshold_changes:
+        threshold = float(loops.threshold_changes[-1])
 
     loop = "newton"
     if loops is not None:

@@ -420,7 +420,8 @@ def _single_line(compile_, raw, params, **kwargs):
 #: SI prefixes understood in unit hints
 _PREFIXES = {"": 1.0, "T": 1e12, "G": 1e9, "M": 1e6, "k": 1e3, "h": 1e2, "c": 1e-2,
              "m": 1e-3, "u": 1e-6, "\u00b5": 1e-6, "\u03bc": 1e-6, "n": 1e-9}
-_WITH_UNIT = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*([^\d\s.,+*/()-][^\s]*)\s*")
+_WITH_UNIT = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"   # a number
+                        r"\s*([^\d\s.,+*/()-][^\s]*)\s*")                     # a unit
 
 
 def _unit_hint(text, doc, strict=False):

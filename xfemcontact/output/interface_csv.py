@@ -3,12 +3,13 @@
 Rows are the ends of the interface segments (the points where the interface
 crosses cell edges, code_aster's NFISSU points), one row per point and cell
 (the ``cell`` column: a point shared by two cells has both cells' values).
-The segments are chained into curves (open, boundary to boundary, or closed)
-and walked with the LN < 0 side on the left -- for SSNV509 from A (x = 0) to
-C (x = 10), along code_aster's tangent.  The curvilinear abscissa ``s`` (m) is
-the integral of the length along the quadratic segments (the sum of their
-Gauss weights), so the last ``s`` of a curve is its length.  A closed curve
-starts at its point of least x (then y); curves are numbered in the same way.
+The segments are chained into curves: an open curve (boundary to boundary)
+is walked from its end of least x (then least y) -- for SSNV509 from A (x = 0)
+to C (x = 10); a closed curve from its point of least x (then y), with the
+LN < 0 side on the left.  Curves are numbered by their first points in the
+same order.  The curvilinear abscissa ``s`` (m) integrates the length along
+the quadratic segments (the sum of their Gauss weights), so the last ``s`` of
+a curve is its length.
 
 Columns: curve, s (m), x, y (m), cell (input cell index), LAGS_C (Pa),
 LAGS_F1 (-), gap, slip (m, normal and tangential jump), contact (1/0),
@@ -67,24 +68,25 @@ def tabulate(ends, seg, el, reference):
     (m), ``xc (K, nn, 2)`` parent coordinates, ``nodes (K, 3, 2)`` segment
     reference nodes; ``reference``: {field: Formula}.
     """
-    K = len(seg["cell"])
-    # walk from P2 to P1: the LN < 0 side on the left
+    # segments run P1 -> P2 with the LN > 0 side on the left: walk them P2 -> P1
     start = np.c_[ends["x"][:, 1], ends["y"][:, 1]]
     stop = np.c_[ends["x"][:, 0], ends["y"][:, 0]]
-    curve, pos = chain(start, stop)
+    curve, pos, rev = chain(start, stop)
     order = np.lexsort((pos, curve))
+    curve, rev = curve[order], rev[order]
     L = seg["length"][order]
     cum = np.cumsum(L)
-    first = np.r_[True, curve[order][1:] != curve[order][:-1]]
+    first = np.r_[True, curve[1:] != curve[:-1]]
     base = np.maximum.accumulate(np.where(first, cum - L, 0.0))               # curve start offsets
     s1 = cum - base
     s0 = np.where(first, 0.0, np.r_[0.0, s1[:-1]])                           # exactly the previous end
-    cols = {"curve": np.repeat(curve[order], 2), "s": np.c_[s0, s1].ravel()}
+    cols = {"curve": np.repeat(curve, 2), "s": np.c_[s0, s1].ravel()}
     for key in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding"):
-        cols[key] = ends[key][order][:, ::-1].ravel()                       # start (P2), stop (P1)
+        v = ends[key][order]
+        cols[key] = np.where(rev[:, None], v, v[:, ::-1]).ravel()             # walk start, walk end
     cols["cell"] = np.repeat(seg["cell"][order], 2)
     cols = {c: cols[c] for c in COLUMNS}
-    curves = dense_curves(el, {k: a[order] for k, a in seg.items()}, curve[order], s0)
+    curves = dense_curves(el, {k: a[order] for k, a in seg.items()}, curve, s0, rev)
     table = InterfaceTable(cols, curves, float(L.sum()))
     add_reference(table, reference)
     return table
@@ -93,9 +95,12 @@ def tabulate(ends, seg, el, reference):
 def chain(start, stop):
     """Order oriented segments ``start -> stop`` ``(K, 2)`` into curves.
 
-    Points closer than the merge tolerance are one point.  Returns ``curve
-    (K,)`` (numbered by the (x, y) of each curve's first point) and ``pos (K,)``
-    (position of the segment along its curve), by pointer jumping.
+    Points closer than the merge tolerance are one point.  An open curve is
+    walked from its end of least x (then y), against the segments' orientation
+    if need be; a closed one along it, from its point of least x (then y).
+    Returns ``curve (K,)`` (numbered by their first points, in the same order),
+    ``pos (K,)`` (position of each segment along its curve) and ``reverse
+    (K,)`` (the segment is walked stop -> start).  Vectorised: pointer jumping.
     """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
@@ -104,8 +109,10 @@ def chain(start, stop):
 
     K = len(start)
     if K == 0:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    lab = merge_points(np.r_[start, stop])
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool)
+    pts = np.r_[start, stop]
+    tol = 1e-9 * (float(np.hypot(*(pts.max(axis=0) - pts.min(axis=0)))) or 1.0)
+    lab = merge_points(pts)
     a, b = lab[:K], lab[K:]
     idx = np.arange(K)
     by_start = np.full(lab.max() + 1, -1)
@@ -114,24 +121,34 @@ def chain(start, stop):
     by_stop[b] = idx
     prv = by_stop[a]
     nxt = by_start[b]
-    # closed curves have no head: cut each at its segment of least start (x, y)
+    # closed curves have no head: cut each at its segment of least start point
     live = nxt >= 0
     g = coo_matrix((np.ones(live.sum()), (idx[live], nxt[live])), shape=(K, K))
     ncomp, comp = connected_components(g, directed=False)
-    has_head = np.zeros(ncomp, bool)
-    has_head[comp[prv < 0]] = True
-    rank = np.lexsort((start[:, 1], start[:, 0]))
-    closed = ~has_head[comp[rank]]
-    cand = rank[closed]
+    is_open = np.zeros(ncomp, bool)
+    is_open[comp[prv < 0]] = True
+    cand = _lex_order(start, tol)
+    cand = cand[~is_open[comp[cand]]]
     _, firsts = np.unique(comp[cand], return_index=True)
-    heads = cand[firsts]
-    prv[heads] = -1
+    prv[cand[firsts]] = -1
     d, head = _list_rank(prv, idx)
-    hr = np.unique(head)
-    hrank = hr[np.lexsort((start[hr, 1], start[hr, 0]))]
-    curve_of_head = np.empty(K, np.int64)
-    curve_of_head[hrank] = np.arange(len(hrank))
-    return curve_of_head[head], d
+    heads, cid = np.unique(head, return_inverse=True)
+    n = np.bincount(cid)
+    by_pos = np.lexsort((d, cid))
+    tails = by_pos[np.r_[np.nonzero(np.diff(cid[by_pos]))[0], K - 1]]       # last segment of each curve
+    ends = np.stack([start[heads], stop[tails]])                             # (2, nc, 2)
+    rank = _lex_order(ends.reshape(-1, 2), tol).argsort().reshape(2, -1)
+    flip = is_open[comp[heads]] & (rank[1] < rank[0])                       # open, last end first
+    d = np.where(flip[cid], n[cid] - 1 - d, d)
+    first_pt = np.where(flip[:, None], ends[1], ends[0])
+    number = np.empty(len(heads), np.int64)
+    number[_lex_order(first_pt, tol)] = np.arange(len(heads))
+    return number[cid], d, flip[cid]
+
+
+def _lex_order(p, tol):
+    """Indices sorting points ``p (m, 2)`` by x (to ``tol``), then y."""
+    return np.lexsort((p[:, 1], np.round(p[:, 0] / tol)))
 
 
 def _list_rank(prv, idx):
@@ -147,20 +164,21 @@ def _list_rank(prv, idx):
         p = pp
 
 
-def dense_curves(el, seg, curve, s0, n=DENSE):
-    """Dense polylines ``{"x", "y", "s"}`` of every curve (segments in curve order)."""
-    t = np.linspace(1.0, -1.0, n)                                             # walk P2 -> P1
-    xi = np.einsum("pa,kai->kpi", Seg3.shape(t), seg["nodes"])
+def dense_curves(el, seg, curve, s0, rev, n=DENSE):
+    """Dense polylines ``{"x", "y", "s"}`` (m) of every curve, segments in curve order;
+    ``rev (K,)``: the segment is walked P1 -> P2 (else P2 -> P1)."""
+    t = np.where(rev[:, None], -1.0, 1.0) * np.linspace(1.0, -1.0, n)[None, :]   # (K, n) walk order
+    xi = np.einsum("kpa,kai->kpi", Seg3.shape(t), seg["nodes"])
     x = np.einsum("kpa,kai->kpi", el.shape(xi), seg["xc"])
     # arc length of each sub-interval (4-point Gauss-Legendre), scaled to the segment length
     g, wg = np.polynomial.legendre.leggauss(4)
-    ta, tb = t[:-1], t[1:]
-    tq = 0.5 * (ta + tb)[:, None] + 0.5 * (tb - ta)[:, None] * g[None, :]      # (n-1, 4)
-    xq = np.einsum("pqa,kai->kpqi", Seg3.shape(tq), seg["nodes"])
-    dxq = np.einsum("pqa,kai->kpqi", Seg3.dshape(tq), seg["nodes"])
+    ta, tb = t[:, :-1], t[:, 1:]
+    tq = 0.5 * (ta + tb)[..., None] + 0.5 * (tb - ta)[..., None] * g                # (K, n-1, 4)
+    xq = np.einsum("kpqa,kai->kpqi", Seg3.shape(tq), seg["nodes"])
+    dxq = np.einsum("kpqa,kai->kpqi", Seg3.dshape(tq), seg["nodes"])
     J = np.einsum("kpqaj,kai->kpqij", el.dshape(xq), seg["xc"])
     speed = np.linalg.norm(np.einsum("kpqij,kpqj->kpqi", J, dxq), axis=-1)
-    sub = np.einsum("kpq,q->kp", speed, wg) * 0.5 * np.abs(tb - ta)[None, :]
+    sub = np.einsum("kpq,q->kp", speed, wg) * 0.5 * np.abs(tb - ta)
     sub *= (seg["length"] / np.maximum(sub.sum(axis=1), 1e-300))[:, None]
     s = s0[:, None] + np.c_[np.zeros(len(sub)), np.cumsum(sub, axis=1)]
     out = []

@@ -33,7 +33,10 @@ def render(summary, files, case_source="", warnings=()):
     s = summary
     ok = all(t["ok"] for t in s["tests"])
     status = "converged" if s["converged"] else "NOT converged"
-    verdict = "no tests" if not s["tests"] else ("all tests OK" if ok else "some tests NOOK")
+    if not s["converged"]:
+        verdict = "tests not evaluated (the fields are the last iterate)"
+    else:
+        verdict = "no tests" if not s["tests"] else ("all tests OK" if ok else "some tests NOOK")
     out = [f"# {s['title']}", "",
            f"Case `{s['case']}`" + (f" (`{case_source}`)" if case_source else "")
            + f", xfemcontact {s['xfemcontact']}, {s['processes']} process(es): "
@@ -84,7 +87,7 @@ def render(summary, files, case_source="", warnings=()):
                         f"{t['reference']:.10e}", f"{t['error']:.3e}", f"{t['tolerance']:.2e}", t["criterion"],
                         "-" if not t.get("at") else f"({t['at'][0]:.6g}, {t['at'][1]:.6g})"] for t in s["tests"]])
     else:
-        out.append("No tests in the case.")
+        out.append("No tests in the case." if s["converged"] else "Not converged: no test evaluated.")
     out += ["", "## Timings (s)", ""]
     tm = s["timings"]
     out += _table(list(tm), [[f"{v:.3f}" for v in tm.values()]])

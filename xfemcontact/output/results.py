@@ -100,14 +100,15 @@ def write_fields(folder, model, u, values):
         meshio.write(folder.file("fields.vtu"), post.to_meshio(), file_format="vtu")
         written.append("fields.vtu")
     if "med" in formats:
-        meshio.write(folder.file("fields.med"), post.to_meshio(dim=2), file_format="med")
+        meshio.write(folder.file("fields.med"), post.to_meshio(med=True), file_format="med")
         written.append("fields.med")
     return post, written
 
 
-def write_outputs(folder, model, u, values, converged, reason, outcomes):
+def write_outputs(folder, model, u, values, converged, reason, outcomes, warnings=()):
     """Every result file but results.json: fields, interface.csv, plots, report.md.
-    Collective; only rank 0 writes."""
+    Collective; only rank 0 writes.  ``warnings``: more lines for report.md (the
+    input checks' warnings)."""
     from xfemcontact.output import interface_csv, report
     from xfemcontact.post import plots
 
@@ -116,7 +117,7 @@ def write_outputs(folder, model, u, values, converged, reason, outcomes):
     summary_now = summary(model, converged, reason, outcomes)
     if model.comm.rank != 0:
         return
-    warnings = []
+    warnings = list(warnings)
     if table is not None:
         files += interface_csv.write(folder, table)
         warnings += table.warnings
@@ -124,7 +125,8 @@ def write_outputs(folder, model, u, values, converged, reason, outcomes):
         case = model.case
         criterion = case.newton.resi_glob_rela * model.load_norm if model.snes else None
         resi_frot = getattr(case.contact, "resi_frot", None) if model.loops else None
-        files += plots.write(folder, case.title, post=post, table=table,
+        title = case.title if converged else f"{case.title} -- NOT CONVERGED (last iterate)"
+        files += plots.write(folder, title, post=post, table=table,
                              history=summary_now["residual_history"], iterations=summary_now["iterations"],
                              criterion=criterion, resi_frot=resi_frot, young=case.material.E,
                              friction=bool(model.has_contact and model.law.friction))

@@ -229,24 +229,29 @@ def convergence_figure(history, iterations, title, criterion=None, resi_frot=Non
     ax = axes[0]
     h = np.maximum(np.asarray(history, float), 1e-300)
     start = 0
-    labels = _solve_labels(contact, len(per_solve))
+    friction = bool(iterations.get("friction"))
+    labels = _solve_labels(contact, len(per_solve), friction)
     for i, its in enumerate(per_solve):
         seg = h[start:start + its + 1]
         xs = np.arange(start, start + len(seg))
-        ax.semilogy(xs, seg, "o-", color=f"C{i % 10}", ms=4,
-                    label=f"solve {i + 1} ({labels[i]}): {its} its"
-                          + (f", {changes[i]} status changes" if i < len(changes) else ""))
+        ax.semilogy(xs, seg, "o-", color=f"C{i % 10}", ms=4, label="Newton solve" if i == 0 else None)
+        note = labels[i] + (f"\nthen {changes[i]} status changes" if i < len(changes) and changes[i] else "")
+        ax.annotate(note, (xs[0], seg[0]), textcoords="offset points", xytext=(3, 4), fontsize=7,
+                    color=f"C{i % 10}")
         if i:
             ax.axvline(start - 0.5, color="0.7", lw=0.8)
         start += len(seg)
     if criterion:
         ax.axhline(criterion, color="k", ls="--", lw=1, label=f"criterion {criterion:.2g}")
+    if len(h):
+        ax.set_ylim(top=float(h.max()) * 100)            # room for the labels above the first points
     from matplotlib.ticker import MaxNLocator
 
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     ax.set_xlabel("residual evaluation (all Newton solves in order)")
     ax.set_ylabel("Newton residual norm |R| (N)")
-    ax.set_title("Newton residuals, solve after solve")
+    key = "F<i> C<j>: friction iteration i, contact iteration j" if friction else "C<j>: contact iteration j"
+    ax.set_title(f"Newton residuals, solve after solve\n({key})", fontsize=10)
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8, loc="best")
     if thr:
@@ -265,11 +270,12 @@ def convergence_figure(history, iterations, title, criterion=None, resi_frot=Non
     return fig
 
 
-def _solve_labels(contact, n):
-    """"F<i> C<j>" (friction iteration, contact iteration) of each Newton solve."""
+def _solve_labels(contact, n, friction=True):
+    """"F<i> C<j>" (friction iteration i, contact iteration j) of each Newton solve
+    ("C<j>" without friction loop)."""
     out = []
     for f, c in enumerate(contact):
-        out += [f"F{f + 1} C{j + 1}" if len(contact) > 1 else f"C{j + 1}" for j in range(c)]
+        out += [(f"F{f + 1} " if friction else "") + f"C{j + 1}" for j in range(c)]
     return (out + [""] * n)[:n]
 
 

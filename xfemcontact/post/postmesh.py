@@ -20,6 +20,9 @@ averaged over the cell or sub-cell, ``side`` (-1/+1; 0 without interface),
 ``cell`` (the input cell index) and ``subcell`` (index of the sub-triangle in
 its parent, -1 for uncut cells).
 
+In MED files the interface copies also form node groups NM (LN < 0 side), NP
+(LN > 0 side) and NFISSU (both), as POST_MAIL_XFEM names them.
+
 Every process computes its own cells; rank 0 gathers them and numbers cells by
 (block, input cell, sub-cell) and points by first use, so the files do not
 depend on the number of processes.
@@ -42,7 +45,6 @@ SEGMENT_POINTS = np.array([-1.0, -0.5, 0.0, 0.5, 1.0])
 MERGE_TOL = 1e-11
 #: interface samples farther than this (same unit) from every interface point are not post-mesh points
 SAMPLE_TOL = 1e-9
-POINT_FIELDS = ("DX", "DY", "LAGS_C", "LAGS_F1", "contact", "sliding", "NFISSU")
 CELL_FIELDS = ("SIXX", "SIYY", "SIXY", "EPXX", "EPYY", "EPXY", "side", "cell", "subcell")
 
 
@@ -55,16 +57,24 @@ class PostMesh:
     point_data: dict        # name -> (np,)
     cell_data: dict         # name -> [(k,) per block]
 
-    def to_meshio(self, dim=3):
-        """A meshio.Mesh (points padded to ``dim`` coordinates)."""
+    def to_meshio(self, med=False):
+        """A meshio.Mesh: 3-D points and a ``displacement`` vector (for ParaView), or for
+        MED (``med``) 2-D points and the node groups NFISSU, NM (LN < 0 copies) and NP."""
         import meshio
 
-        pts = self.points if dim == 2 else np.c_[self.points, np.zeros(len(self.points))]
         pd = dict(self.point_data)
-        if dim == 3:
+        if med:
+            pts = self.points
+            nf = pd["NFISSU"]
+            pd["point_tags"] = np.where(nf == -1, 1, np.where(nf == 1, 2, 0)).astype(np.int64)
+        else:
+            pts = np.c_[self.points, np.zeros(len(self.points))]
             pd["displacement"] = np.c_[pd["DX"], pd["DY"], np.zeros(len(self.points))]
-        return meshio.Mesh(pts, [(t, c) for t, c in self.blocks], point_data=pd,
-                           cell_data={k: list(v) for k, v in self.cell_data.items()})
+        m = meshio.Mesh(pts, [(t, c) for t, c in self.blocks], point_data=pd,
+                        cell_data={k: list(v) for k, v in self.cell_data.items()})
+        if med:
+            m.point_tags = {1: ["NFISSU", "NM"], 2: ["NFISSU", "NP"]}
+        return m
 
 
 # -- one process's cells ---------------------------------------------------------
