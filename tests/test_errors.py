@@ -558,3 +558,33 @@ def test_levelset_meets_domain_function():
     assert message == ("c.toml: interface.level_set: the interface only touches the domain "
                        "(LN >= 0 at every node, LN = 0 at 1 node(s), near (1, 2); no side with "
                        "LN < 0): solving without interface")
+
+
+def test_level_set_field_of_the_mesh_file(tmp_path):
+    """interface.level_set_field: missing, not finite, of one sign (checked like a formula)."""
+    from xfemcontact import checks
+    from xfemcontact.errors import MeshError
+    from xfemcontact.mesh.generate import rectangle
+
+    mesh = ROOT / "cases" / "meshes" / "ssnv509a.mmed"
+    text = edited(CONTACT, ("rectangle = { nx = 8, ny = 8, x = [0.0, 10.0], y = [0.0, 10.0], "
+                            'cell = "QUAD8" }', f'file = "{mesh}"'),
+                  (CIRCLE, 'level_set_field = "LSN"'))
+    case = _case(tmp_path, text)
+    raw = rectangle(8, 8)
+    raw.source = "m.med"
+    with pytest.raises(MeshError, match=r"interface.level_set_field: no nodal field 'LSN' in "
+                                        r"m.med \(nodal fields: none\)"):
+        checks.preflight(case, raw)
+    x, y = raw.points.T
+    raw.point_data = {"LSN": (x - 5) ** 2 + (y - 11.77) ** 2 - 64.27}
+    assert checks.preflight(case, raw).warnings == []
+    raw.point_data["LSN"][7] = np.nan
+    with pytest.raises(MeshError, match=r"'LSN' is not finite at node 7 \("):
+        checks.preflight(case, raw)
+    raw.point_data["LSN"] = y + 1
+    pre = checks.preflight(case, raw)
+    assert not pre.interface
+    assert pre.warnings == [f"{case.source}: interface.level_set_field: the interface does not "
+                            f"meet the domain (LN > 0 at every node, from 1 to 11): solving "
+                            f"without interface"]

@@ -11,7 +11,8 @@ no MPI_Abort).  In order:
 2. the load groups exist in the mesh (:meth:`Case.check_groups`);
 3. the imposed displacements can be evaluated at the nodes of their groups
    (a formula giving NaN or inf names its key and the first bad node);
-4. the level set can be evaluated at every node; :func:`levelset_meets_domain`
+4. the level set (formula, or nodal field of the mesh file) has a finite value at
+   every node; :func:`levelset_meets_domain`
    (a level set of one sign: warning, the case is solved without interface)
    and :func:`levelset_without_sign_change` (LN = 0 on a whole cell, or along
    an edge with the same side on both faces: what a crack or an interface
@@ -20,8 +21,8 @@ no MPI_Abort).  In order:
    whole mesh, or each side of a ``law = "free"`` interface) against
    translations and rotation.
 
-The functions of steps 4 and 5 take plain arrays and can also be called on the
-distributed mesh (``comm`` for the global reductions).
+:func:`levelset_meets_domain` also works on the nodal values of the distributed
+mesh (``comm`` for the global reductions).
 """
 from dataclasses import dataclass, field
 
@@ -109,12 +110,21 @@ def _preflight(case, raw):
             formula(x=x[nodes, 0], y=x[nodes, 1])          # FormulaError names key and node
     phi = None
     itf = case.interface
-    if itf is not None and itf.level_set is not None:
-        values = itf.level_set(x=x[used, 0], y=x[used, 1])
+    if itf is not None:
+        if itf.level_set is not None:
+            key = "interface.level_set"
+            values = itf.level_set(x=x[used, 0], y=x[used, 1])
+        else:
+            key = "interface.level_set_field"
+            values = _field_values(case, raw, itf.level_set_field)[used]
+            bad = ~np.isfinite(values)
+            if bad.any():
+                n = int(used[np.argmax(bad)])
+                raise MeshError(f"{case.source}: {key}: '{itf.level_set_field}' is not finite "
+                                f"at node {n} ({x[n, 0]:.6g}, {x[n, 1]:.6g}) of {raw.source}")
         phi = np.zeros(len(x))
         phi[used] = values
         phi = _roundoff(raw.cells, phi)
-        key = "interface.level_set"
         warning = levelset_meets_domain(phi[used], x[used], source=case.source, key=key)
         if warning:
             result.warnings.append(warning)
@@ -130,6 +140,16 @@ def _preflight(case, raw):
     if problem:
         raise CaseError(problem)
     return result
+
+
+def _field_values(case, raw, name):
+    """Nodal field ``name`` of the mesh file (the level set), or a MeshError listing them."""
+    fields = getattr(raw, "point_data", None) or {}
+    if name not in fields:
+        names = ", ".join(sorted(fields)) or "none"
+        raise MeshError(f"{case.source}: interface.level_set_field: no nodal field '{name}' in "
+                        f"{raw.source} (nodal fields: {names})")
+    return np.asarray(fields[name], dtype=float).reshape(-1)
 
 
 def _group_nodes(raw, groups):

@@ -95,6 +95,13 @@ class Model:
                 raise MeshError(f"{self.case.source}: interface.level_set_field: no nodal field "
                                 f"'{itf.level_set_field}' in {mesh.source} (nodal fields: {names})")
         phi = levelset.nodal_values(mesh, itf, field)
+        from xfemcontact import checks
+
+        self.warnings = []
+        missed = checks.levelset_meets_domain(phi, mesh.x, comm=self.comm.tompi4py(), source=self.case.source)
+        if missed:                       # no interface in the domain: solve without one
+            self.warnings.append(missed)
+            return None
         return geometry.build(mesh, phi)
 
     @property

@@ -115,13 +115,18 @@ def run(case_path, outdir=None, overwrite=False):
     except BaseException:
         folder.abort()
         raise
-    if outcomes:
-        say(comm, *checks.table(outcomes))
-    if not converged:
-        say(comm, f"NOT CONVERGED: last iterate and diagnostics in {outdir}/ "
-                  f"(results.json: \"converged\": false; {len(case.tests)} test(s) not evaluated)")
-        raise ConvergenceError(diagnostics["message"], diagnostics=diagnostics)
-    say(comm, f"results in {outdir}/ ({timing.TIMINGS['total']:.2f} s)")
+    try:                   # the results are in place: an interruption now loses nothing
+        if outcomes:
+            say(comm, *checks.table(outcomes))
+        if not converged:
+            say(comm, f"NOT CONVERGED: last iterate and diagnostics in {outdir}/ "
+                      f"(results.json: \"converged\": false; {len(case.tests)} test(s) not "
+                      f"evaluated)")
+            raise ConvergenceError(diagnostics["message"], diagnostics=diagnostics)
+        say(comm, f"results in {outdir}/ ({timing.TIMINGS['total']:.2f} s)")
+    except Interrupted as exc:
+        exc.outcome = folder.outcome()
+        raise
     return 0 if all(o.ok for o in outcomes) else 1
 
 
