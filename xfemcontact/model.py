@@ -249,8 +249,19 @@ class Model:
             outer.solve(None, self.x)
             return outer.getConvergedReason()
 
+    def release_factors(self):
+        """Free the factorisation (after the solve): post-processing reuses its memory.
+
+        The solver facts are kept for :meth:`solver_info`.
+        """
+        if self.snes is not None and getattr(self, "_solver_info", None) is None:
+            self._solver_info = self.solver_info()
+            self.snes.getKSP().reset()
+
     def solver_info(self):
         """Linear solver facts: type, factorisations, MUMPS statistics when MUMPS factors."""
+        if getattr(self, "_solver_info", None) is not None:
+            return self._solver_info
         if self.snes is None:
             return None
         ksp = self.snes.getKSP()

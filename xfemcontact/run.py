@@ -84,6 +84,7 @@ def run(case_path, outdir=None, overwrite=False):
         del raw
         say(comm, f"{case.title}: {model.layout.global_size} dofs on {comm.size} process(es)")
         reason = model.solve()
+        model.release_factors()
         converged = reason > 0
         loop_warnings = list(model.loops.warnings) if model.loops else []
         warn(comm, *loop_warnings)
