@@ -73,14 +73,18 @@ class DofLayout:
         sec.setChart(*mesh.dm.getChart())
         per_field = self._dofs_per_field()
         ncons = self.fixed.sum(axis=1)
-        for p, dofs, nc, fix in zip(mesh.node_points.tolist(), per_field.tolist(),
-                                    ncons.tolist(), self.fixed.tolist()):
-            sec.setDof(p, sum(dofs))
-            for f, d in enumerate(dofs):
-                if d:
-                    sec.setFieldDof(p, f, d)
-            if nc:
-                sec.setConstraintDof(p, nc)
+        points = mesh.node_points.tolist()
+        # every node carries DX, DY: map() keeps the per-point calls out of the interpreter loop
+        list(map(sec.setDof, points, per_field.sum(axis=1).tolist()))
+        list(map(sec.setFieldDof, points, [0] * len(points), [2] * len(points)))
+        special = np.nonzero(per_field[:, 1:].any(axis=1) | (ncons > 0))[0]   # the few other nodes
+        for i in special.tolist():
+            p, dofs, fix = points[i], per_field[i].tolist(), self.fixed[i].tolist()
+            for f in (1, 2, 3):
+                if dofs[f]:
+                    sec.setFieldDof(p, f, dofs[f])
+            if ncons[i]:
+                sec.setConstraintDof(p, int(ncons[i]))
                 if fix[0] or fix[1]:
                     sec.setFieldConstraintDof(p, 0, fix[0] + fix[1])
                 if fix[2] or fix[3]:

@@ -88,7 +88,7 @@ def affine_stiffness(J, basis):
 
 def strain(G, ue):
     """Strains ``(ne, nq, 3)`` (Voigt) from element dofs ``ue (ne, 2 nf)``."""
-    g = np.einsum("eqfk,eif->eqik", G, ue.reshape(len(ue), 2, -1))   # displacement gradient
+    g = np.matmul(ue.reshape(len(ue), 1, 2, -1), G)                  # (ne, nq, 2, 2) grad u
     return np.stack([g[..., 0, 0], g[..., 1, 1], g[..., 0, 1] + g[..., 1, 0]], axis=-1)
 
 

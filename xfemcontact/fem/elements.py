@@ -179,7 +179,9 @@ def physical_gradients(dshape_ref, J):
     Returns ``(dNdx, detJ)``.
     """
     det = J[..., 0, 0] * J[..., 1, 1] - J[..., 0, 1] * J[..., 1, 0]
-    inv = np.stack([np.stack([J[..., 1, 1], -J[..., 0, 1]], -1),
-                    np.stack([-J[..., 1, 0], J[..., 0, 0]], -1)], -2) / det[..., None, None]
-    # dN/dx_j = sum_i dN/dxi_i dxi_i/dx_j
-    return dshape_ref @ inv, det
+    r = 1.0 / det[..., None]
+    a, b = J[..., 0, 0, None] * r, J[..., 0, 1, None] * r      # inverse, written out:
+    c, d = J[..., 1, 0, None] * r, J[..., 1, 1, None] * r      # [[d, -b], [-c, a]]
+    g0, g1 = dshape_ref[..., 0], dshape_ref[..., 1]
+    # dN/dx_j = sum_i dN/dxi_i dxi_i/dx_j  (broadcast products beat batched 2x2 matmuls)
+    return np.stack([g0 * d - g1 * c, g1 * a - g0 * b], axis=-1), det

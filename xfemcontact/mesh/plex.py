@@ -48,10 +48,7 @@ def _build_serial(raw, comm):
     dm = PETSc.DMPlex().createFromCellList(2, cells, coords, interpolate=True, comm=comm)
     dm.setName("mesh")
     if comm.rank == 0:
-        es, ee = dm.getDepthStratum(1)
-        vs = dm.getDepthStratum(0)[0]
-        cones = np.array([dm.getCone(e) for e in range(es, ee)], dtype=np.int64).reshape(-1, 2) - vs
-        node_of_point = _match_nodes(dm, raw, vnodes, vindex, cones)
+        node_of_point, cones = _match_nodes(dm, raw, vnodes, vindex)
         _label_groups(dm, raw, vnodes, vindex, node_of_point, cones)
     else:
         node_of_point = np.full(dm.getChart()[1] - dm.getChart()[0], -1, dtype=np.int64)
@@ -60,22 +57,30 @@ def _build_serial(raw, comm):
     return dm, node_of_point
 
 
-def _match_nodes(dm, raw, vnodes, vindex, cone):
-    """Input node index of every vertex and edge point (-1 for cells)."""
+def _match_nodes(dm, raw, vnodes, vindex):
+    """Input node index of every vertex and edge point (-1 for cells), and the
+    ``(ne, 2)`` vertex indices (into ``vnodes``) of every edge point.
+
+    DMPlex's interpolation makes edge ``i`` of a cell's cone the edge from its
+    vertex ``i`` to vertex ``i + 1``: the cell's mid-edge node ``nv + i``.
+    """
     pstart, pend = dm.getChart()
     vs, ve = dm.getDepthStratum(0)
+    cs, ce = dm.getHeightStratum(0)
     es, ee = dm.getDepthStratum(1)
     node_of_point = np.full(pend - pstart, -1, dtype=np.int64)
     node_of_point[vs:ve] = vnodes
-    nvert = len(vnodes)
     el = element(raw.cell_type)
-    ed = raw.cells[:, el.edges]                                   # (ne, nedges, 3)
-    keys = _edge_keys(vindex[ed[..., 0]], vindex[ed[..., 1]], nvert).ravel()
-    keys, first = np.unique(keys, return_index=True)
-    mids = ed[..., 2].ravel()[first]
-    pos = np.searchsorted(keys, _edge_keys(cone[:, 0], cone[:, 1], nvert))
-    node_of_point[es:ee] = mids[pos]
-    return node_of_point
+    # one cone per cell (edges), the only per-cell PETSc call of the mesh build
+    cell_edges = np.array([dm.getCone(c) for c in range(cs, ce)], dtype=np.int64).reshape(ce - cs, -1)
+    ed = raw.cells[:, el.edges]                                   # (nc, nedges, 3): a, b, mid
+    node_of_point[cell_edges] = ed[..., 2]
+    cones = np.empty((ee - es, 2), dtype=np.int64)
+    cones[cell_edges - es] = vindex[ed[..., :2]]
+    probe = int(cell_edges[0, -1]) if len(cell_edges) else None
+    if probe is not None and set(dm.getCone(probe) - vs) != set(cones[probe - es]):
+        raise MeshError(f"{raw.source}: unexpected DMPlex edge order")   # PETSc changed its convention
+    return node_of_point, cones
 
 
 def _label_groups(dm, raw, vnodes, vindex, node_of_point, cone):
@@ -121,15 +126,17 @@ def _set_stratum(label, value, points):
     label.setStratumIS(value, PETSc.IS().createGeneral(pts, comm=PETSc.COMM_SELF))
 
 
-def _nodal_field(dm, node_of_point, points, data):
+def _nodal_field(dm, node_of_point, points, data, cells):
     """Section and Vec carrying (x, y, input node index, nodal fields...) on
-    vertices and edges and (input cell index) on cells."""
+    vertices and edges and (input cell index, input node indices of its nodes)
+    on cells: once distributed, every process rebuilds its cells' nodes from
+    these without walking DMPlex closures one cell at a time."""
     pstart, pend = dm.getChart()
     sec = PETSc.Section().create(comm=dm.comm)
     sec.setChart(pstart, pend)
-    dofs = _field_dofs(dm, len(data))
-    for p in range(pstart, pend):
-        sec.setDof(p, dofs[p - pstart])
+    nn = cells.shape[1]
+    dofs = _field_dofs(dm, len(data), nn)
+    list(map(sec.setDof, range(pstart, pend), dofs.tolist()))
     sec.setUp()
     vec = PETSc.Vec().createSeq(sec.getStorageSize(), comm=PETSc.COMM_SELF)
     if pend > pstart:
@@ -137,6 +144,7 @@ def _nodal_field(dm, node_of_point, points, data):
         off = _field_offsets(dofs)
         a = vec.getArray()
         a[off[cs:ce]] = np.arange(ce - cs)
+        a[off[cs:ce, None] + 1 + np.arange(nn)] = cells
         nodes = np.nonzero(node_of_point >= 0)[0]
         n = node_of_point[nodes]
         a[off[nodes]] = points[n, 0]
@@ -147,11 +155,11 @@ def _nodal_field(dm, node_of_point, points, data):
     return sec, vec
 
 
-def _field_dofs(dm, nfields=0):
+def _field_dofs(dm, nfields, nn):
     pstart, pend = dm.getChart()
     dofs = np.full(pend - pstart, 3 + nfields, dtype=np.int64)
     cs, ce = dm.getHeightStratum(0)
-    dofs[cs - pstart:ce - pstart] = 1
+    dofs[cs - pstart:ce - pstart] = 1 + nn
     return dofs
 
 
@@ -332,7 +340,9 @@ def load(raw, comm=None, cell_weights=None):
     dm, node_of_point = _build_serial(raw, comm)
     points = raw.points if mpi.rank == 0 else None
     data = [raw.point_data[k] for k in field_names] if mpi.rank == 0 else [None] * len(field_names)
-    sec, vec = _nodal_field(dm, node_of_point, points, data)
+    nn = element(cell_type).nn
+    cells = raw.cells if mpi.rank == 0 else np.zeros((0, nn), np.int64)
+    sec, vec = _nodal_field(dm, node_of_point, points, data, cells)
     part_info = {"partitioner": "none"}
     if comm.size > 1:
         part_info = _partition(dm, raw, comm, cell_weights)
@@ -368,12 +378,7 @@ def _local_view(dm, sec, vec, cell_type, source, field_names=()):
     node_of_point = np.full(pend - pstart, -1, dtype=np.int64)
     node_of_point[node_points] = np.arange(len(node_points))
     cells = np.arange(cs, ce, dtype=np.int64)
-    closure = np.array([dm.getTransitiveClosure(c)[0] for c in cells], dtype=np.int64)
-    closure = closure.reshape(len(cells), 1 + el.nv + (el.nn - el.nv))
-    nedge = el.nn - el.nv
-    # closure = [cell, edges 0..k-1, vertices 0..k-1]; our order = vertices, then edges
-    cell_nodes = node_of_point[np.c_[closure[:, 1 + nedge:], closure[:, 1:1 + nedge]]]
-    dofs = _field_dofs(dm, len(field_names))
+    dofs = _field_dofs(dm, len(field_names), el.nn)
     off = _field_offsets(dofs)
     if sec.getChart()[1] > sec.getChart()[0] and pend > pstart:
         probe = node_points[-1] if len(node_points) else cs
@@ -383,6 +388,7 @@ def _local_view(dm, sec, vec, cell_type, source, field_names=()):
     x = np.c_[a[noff], a[noff + 1]] if len(noff) else np.zeros((0, 2))
     node_ids = a[noff + 2].astype(np.int64) if len(noff) else np.zeros(0, np.int64)
     cell_ids = a[off[cells]].astype(np.int64) if len(cells) else np.zeros(0, np.int64)
+    cell_nodes = _local_cell_nodes(a[off[cells][:, None] + 1 + np.arange(el.nn)].astype(np.int64), node_ids)
     node_data = {name: (a[noff + 3 + j] if len(noff) else np.zeros(0)) for j, name in enumerate(field_names)}
     owned = np.ones(pend - pstart, dtype=bool)
     leaves = point_sf_leaves(dm)
@@ -391,6 +397,18 @@ def _local_view(dm, sec, vec, cell_type, source, field_names=()):
                      cell_ids=cell_ids, node_points=node_points, node_of_point=node_of_point,
                      x=x, node_ids=node_ids, node_owned=owned[node_points],
                      n_vertices=ve - vs, source=source, node_data=node_data)
+
+
+def _local_cell_nodes(cell_input_nodes, node_ids):
+    """Local node indices ``(nc, nn)`` of cells given by input node indices: every
+    node of a local cell is a local point (DMPlex distributes closures)."""
+    order = np.argsort(node_ids, kind="stable")
+    pos = np.searchsorted(node_ids[order], cell_input_nodes)
+    pos = np.minimum(pos, max(len(order) - 1, 0))
+    found = order[pos] if len(order) else np.zeros(cell_input_nodes.shape, np.int64)
+    if len(order) and not np.array_equal(node_ids[found], cell_input_nodes):
+        raise MeshError("distributed mesh: a cell node is missing on its process")
+    return found
 
 
 def reduce_nodes(mesh, values, op="sum"):

@@ -83,6 +83,7 @@ def _pieces(model, values, xl):
 
     Returns a dict: ``cell (m,)`` input ids, ``sub (m,)`` sub-cell index (-1
     uncut), ``nn (m,)`` node count, ``x (m, 8, 2)`` node coordinates (m),
+    ``node (m, 8)`` input node ids (-1 at sub-cell nodes: merged by position),
     ``u (m, 8, 2)`` displacements (m), ``side (m,)``, ``sig``, ``eps (m, 3)``.
     """
     mesh, geo, layout = model.mesh, model.geo, model.layout
@@ -92,17 +93,18 @@ def _pieces(model, values, xl):
     uncut = np.nonzero(~cut)[0]
     side_u = geo.cell_side[uncut] if geo is not None else np.zeros(len(uncut), np.int64)
     sig, eps = fields.cell_means(mesh, values)
-    xi_u = np.broadcast_to(el.ref_nodes, (len(uncut),) + el.ref_nodes.shape)
+    nodes = mesh.cell_nodes[uncut]
     parts = [dict(cell=mesh.cell_ids[uncut], sub=np.full(len(uncut), -1), nn=np.full(len(uncut), el.nn),
-                  x=mesh.x[mesh.cell_nodes[uncut]], u=displacement_at(model, xl, uncut, xi_u, side_u),
+                  x=mesh.x[nodes], node=mesh.node_ids[nodes], u=nodal_displacement(model, xl, uncut, side_u),
                   side=side_u, sig=sig[uncut], eps=eps[uncut])]
     if cut.any():
         parts.append(_subcell_pieces(model, xl))
     out = {}
     for k in parts[0]:
         arrs = [p[k] for p in parts]
-        if arrs[0].ndim == 3:        # pad nodes to 8
-            arrs = [np.concatenate([a, np.zeros((len(a), 8 - a.shape[1], 2))], axis=1) for a in arrs]
+        if arrs[0].ndim > 1:         # pad nodes to 8
+            arrs = [np.concatenate([a, np.full((len(a), 8 - a.shape[1]) + a.shape[2:], -1 if k == "node" else 0,
+                                               a.dtype)], axis=1) for a in arrs]
         out[k] = np.concatenate(arrs)
     return out
 
@@ -128,8 +130,21 @@ def _subcell_pieces(model, xl):
     eps = np.einsum("ksq,ksqi->ksi", w, e.reshape(k, ns, -1, 3)) / area       # (k, ns, 3)
     sig = eps @ model.D.T                                                     # linear: mean of D eps
     return dict(cell=mesh.cell_ids[cells], sub=np.nonzero(live)[1], nn=np.full(len(cells), 6),
-                x=x, u=displacement_at(model, xl, cells, xi, side), side=side,
+                x=x, node=np.full((len(cells), 6), -1, np.int64), u=displacement_at(model, xl, cells, xi, side), side=side,
                 sig=sig[live], eps=eps[live])
+
+
+def nodal_displacement(model, xl, cells, side):
+    """Displacement ``(k, nn, 2)`` (m) at the nodes of local ``cells (k,)`` on side
+    ``side (k,)``: the shape functions are 1 at their own node, so ``u_a + psi_a h_a``."""
+    mesh, geo, layout = model.mesh, model.geo, model.layout
+    nodes = mesh.cell_nodes[cells]
+    u = xl[layout.u_local[nodes]]
+    if geo is not None:
+        hl = np.where(layout.h_local >= 0, layout.h_local, layout.dummy)
+        psi = (np.asarray(side)[:, None] - geo.node_side[nodes]) * geo.enriched[nodes]
+        u = u + psi[..., None] * xl[hl[nodes]]
+    return u
 
 
 def displacement_at(model, xl, cells, xi, side):
@@ -139,11 +154,11 @@ def displacement_at(model, xl, cells, xi, side):
     mesh, geo, layout = model.mesh, model.geo, model.layout
     nodes = mesh.cell_nodes[cells]
     N = mesh.element.shape(xi)                                                # (k, p, nn)
-    u = np.einsum("kpa,kai->kpi", N, xl[layout.u_local[nodes]])
+    u = np.matmul(N, xl[layout.u_local[nodes]])
     if geo is not None:
         hl = np.where(layout.h_local >= 0, layout.h_local, layout.dummy)
         psi = (np.asarray(side)[:, None] - geo.node_side[nodes]) * geo.enriched[nodes]   # (k, nn)
-        u += np.einsum("kpa,ka,kai->kpi", N, psi, xl[hl[nodes]])
+        u += np.matmul(N * psi[:, None, :], xl[hl[nodes]])
     return u
 
 
@@ -215,7 +230,7 @@ def assemble(pieces, samples, cell_type):
     slot = np.arange(8)[None, :] < nn[:, None]                                # (m, 8) live node slots
     xs = p["x"][slot]                                                         # (S, 2) in cell order
     side_s = np.repeat(p["side"], nn)
-    loc = merge_points(xs)
+    loc = slot_locations(xs, p["node"][slot])
     # a point per (location, side); the interface is where a location has two sides
     key = loc * 3 + (side_s + 1)
     uniq, first, slot_point = np.unique(key, return_index=True, return_inverse=True)
@@ -254,7 +269,40 @@ def assemble(pieces, samples, cell_type):
     return PostMesh(points, blocks, pd, cd)
 
 
-def merge_points(xs):
+def slot_locations(xs, node):
+    """Location label ``(S,)`` of every cell slot, numbered by first appearance.
+
+    Slots with an input node id (``node >= 0``) are that node; the others (sub-cell
+    nodes) are merged by position (:func:`merge_points`) among themselves and
+    with the nodes of the input mesh that they touch.
+    """
+    from scipy.spatial import cKDTree
+
+    key = node.astype(np.int64).copy()
+    free = np.nonzero(key < 0)[0]
+    if len(free):
+        diag = _diagonal(xs)
+        known = np.nonzero(key >= 0)[0]
+        known = known[np.unique(key[known], return_index=True)[1]]          # one slot per input node
+        d, _ = cKDTree(xs[free]).query(xs[known], distance_upper_bound=MERGE_TOL * diag)
+        known = known[np.isfinite(d)]                                        # input nodes that sub-cells touch
+        lab = merge_points(np.concatenate([xs[free], xs[known]]), diag=diag)
+        ids = np.full(lab.max() + 1, -1, np.int64)
+        ids[lab[len(free):]] = key[known]                                    # groups holding an input node
+        fresh = ids < 0
+        ids[fresh] = (key.max() + 1 if len(known) else 0) + np.arange(fresh.sum())
+        key[free] = ids[lab[:len(free)]]
+    _, first, inv = np.unique(key, return_index=True, return_inverse=True)
+    rank = np.empty(len(first), np.int64)
+    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
+    return rank[inv]
+
+
+def _diagonal(xs):
+    return float(np.hypot(*(xs.max(axis=0) - xs.min(axis=0)))) or 1.0 if len(xs) else 1.0
+
+
+def merge_points(xs, diag=None):
     """Label ``(S,)`` of each point of ``xs (S, 2)``: equal for points closer than
     MERGE_TOL times the bounding-box diagonal, numbered by first appearance."""
     from scipy.sparse import coo_matrix
@@ -264,7 +312,7 @@ def merge_points(xs):
     n = len(xs)
     if n == 0:
         return np.zeros(0, np.int64)
-    diag = float(np.hypot(*(xs.max(axis=0) - xs.min(axis=0)))) or 1.0
+    diag = _diagonal(xs) if diag is None else diag
     pairs = cKDTree(xs).query_pairs(MERGE_TOL * diag, output_type="ndarray")
     g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
     _, lab = connected_components(g, directed=False)

@@ -20,7 +20,7 @@ it, so only supports thinner than that (ratios below about 1e-12) are dropped;
 MUMPS' own scaling copes with the remaining small ratios (the condition
 estimates in the tests show it).
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -42,6 +42,7 @@ class Geometry:
     enriched: np.ndarray       # (n,) bool, carries H1X, H1Y
     ratio: np.ndarray          # (n,) support ratio r_j (1 for non-enriched nodes)
     dropped: int               # nodes whose Heaviside dofs the conditioning rule removed
+    cut_points: object = field(default=None, repr=False)  # integration.CellPoints of cut cells, cached
 
     @property
     def cut_cells(self):
@@ -105,13 +106,20 @@ def cell_points(mesh, geo, cells):
     out = []
     cc = cells[cut_mask]
     if len(cc):
-        pos = np.searchsorted(geo.subcells.cells, cc)
-        sub = cut.SubCells(cc, geo.subcells.nodes[pos], geo.subcells.side[pos])
-        out.append(integration.subcell_points(el, mesh.x[mesh.cell_nodes[cc]], sub))
+        out.append(_cut_points(mesh, geo).take(np.searchsorted(geo.subcells.cells, cc)))
     uc = cells[~cut_mask]
     if len(uc):
         out.append(integration.cell_points(el, mesh.x[mesh.cell_nodes[uc]], uc, geo.cell_side[uc]))
     return out
+
+
+def _cut_points(mesh, geo):
+    """Sub-cell quadrature of all cut cells, computed once per geometry (assembly,
+    support ratios and post-processing all integrate over the same sub-cells)."""
+    if geo.cut_points is None:
+        sub = geo.subcells
+        geo.cut_points = integration.subcell_points(mesh.element, mesh.x[mesh.cell_nodes[sub.cells]], sub)
+    return geo.cut_points
 
 
 def support_ratio(mesh, geo):

@@ -4,7 +4,7 @@ Points are returned in the parent cell's reference coordinates ``xi`` (where the
 parent's shape functions are evaluated) together with physical positions and
 weights that include every Jacobian (m^2 for areas, m for lengths).
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -29,6 +29,10 @@ class CellPoints:
     dNdx: np.ndarray     # (k, nq, nn, 2) physical gradients of the parent's shape functions
     N: np.ndarray        # (k, nq, nn) parent shape functions
 
+    def take(self, rows):
+        """The points of the cells at positions ``rows``."""
+        return CellPoints(*(getattr(self, f.name)[rows] for f in fields(self)))
+
 
 def _parent_maps(el, xc, xi):
     """Physical points, gradients and det J of parents ``xc (k, nn, 2)`` at ``xi``.
@@ -38,14 +42,17 @@ def _parent_maps(el, xc, xi):
     """
     if xi.ndim == 2:
         N0, dN0 = el.shape(xi), el.dshape(xi)                      # (nq, nn), (nq, nn, 2)
-        x = np.einsum("qa,kai->kqi", N0, xc)
-        J = np.einsum("qaj,kai->kqij", dN0, xc)
-        dNdx, det = physical_gradients(np.broadcast_to(dN0, J.shape[:2] + dN0.shape[1:]), J)
-        return np.broadcast_to(N0, (len(xc),) + N0.shape), x, dNdx, det
+        (nq, nn), k = N0.shape, len(xc)
+        x = np.matmul(N0, xc)                                       # (k, nq, 2)
+        # J[k, q, i, j] = sum_a xc[k, a, i] dN0[q, a, j], as one BLAS product
+        J = xc.transpose(0, 2, 1).reshape(-1, nn) @ dN0.transpose(1, 0, 2).reshape(nn, -1)
+        J = J.reshape(k, 2, nq, 2).transpose(0, 2, 1, 3)
+        dNdx, det = physical_gradients(dN0, J)
+        return np.broadcast_to(N0, (k,) + N0.shape), x, dNdx, det
     N = el.shape(xi)
     dN = el.dshape(xi)
-    x = np.einsum("kqa,kai->kqi", N, xc)
-    J = np.einsum("kqaj,kai->kqij", dN, xc)
+    x = np.matmul(N, xc)
+    J = np.matmul(xc[:, None].swapaxes(-1, -2), dN)                 # (k, nq, 2, 2)
     dNdx, det = physical_gradients(dN, J)
     return N, x, dNdx, det
 
