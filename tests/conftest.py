@@ -11,6 +11,8 @@ import pytest
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 CASES = ROOT / "cases"
 MESHES = CASES / "meshes"
+# code_aster's own SSNV509 meshes, next to the checkout (../shared/meshes), wherever it lives
+SHARED_MESHES = ROOT.parent / "shared" / "meshes"
 
 ENV = dict(os.environ,
            PETSC_DIR=os.environ.get("PETSC_DIR", "/usr/lib/petscdir/petsc3.18/x86_64-linux-gnu-real"),

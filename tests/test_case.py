@@ -17,9 +17,10 @@ from xfemcontact.case import Case, load_case, schema
 from xfemcontact.case.formula import Condition, Formula, FormulaError
 from xfemcontact.case.load import Material
 from xfemcontact.errors import CaseError, XfcError
+from conftest import SHARED_MESHES
 
 CASES = Path(__file__).parent / "data" / "cases"
-MESH = Path("/work/shared/meshes/ssnv509a.mmed")
+MESH = SHARED_MESHES / "ssnv509a.mmed"
 DELETE = object()
 
 

@@ -123,3 +123,29 @@ def test_mpi_same_interface_values(tmp_path):
     a, b = results(one)["interface"], results(two)["interface"]
     for k in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip"):
         assert np.allclose(a[k], b[k], rtol=0, atol=1e-10), k
+
+
+def test_batched_packet_eigenvalues_match_one_by_one():
+    """Packets of several sizes (one singular) solved in batches = solved one at a time."""
+    import scipy.sparse as sp
+    from xfemcontact.contact import space as cspace
+
+    rng = np.random.default_rng(3)
+    sizes = [1, 3, 2, 3, 1, 5, 2]
+    blocks = []
+    for m in sizes:
+        a = rng.normal(size=(m, m + 1))
+        blocks.append(a @ a.T)
+    v = np.ones(3)
+    blocks[2 * 0 + 1] = np.outer(v, v)                    # rank one: a kernel
+    G = sp.block_diag(blocks).tocsr()
+    perm = rng.permutation(G.shape[0])                    # packets scattered in the numbering
+    inv = np.argsort(perm)
+    Gp = G[perm][:, perm]
+    bounds = np.r_[0, np.cumsum(sizes)]
+    order = inv[np.arange(G.shape[0])]
+    got = cspace._packet_eigenvalues(Gp.tocsr(), order, bounds)
+    want = [cspace._smallest_scaled_eigenvalue(Gp[order[a:b]][:, order[a:b]])
+            for a, b in zip(bounds[:-1], bounds[1:])]
+    assert np.allclose(got, want, atol=1e-12)
+    assert abs(got[1]) < 1e-12 and got.min() == got[1]

@@ -20,11 +20,12 @@ from hypothesis import strategies as st
 from xfemcontact import checks
 from xfemcontact.case import Case, load_case
 from xfemcontact.errors import XfcError
+from conftest import SHARED_MESHES
 
 DATA = Path(__file__).parent / "data" / "cases"
 TEXTS = {p.stem: p.read_text() for p in sorted(DATA.glob("*.toml"))}
 # the mesh file of ssnv509a_mesh.toml, absolute so that the case can be written anywhere
-TEXTS["ssnv509a_mesh"] = re.sub(r'file = "[^"]*"', 'file = "/work/shared/meshes/ssnv509a.mmed"',
+TEXTS["ssnv509a_mesh"] = re.sub(r'file = "[^"]*"', f'file = "{SHARED_MESHES / "ssnv509a.mmed"}"',
                                 TEXTS["ssnv509a_mesh"])
 
 FUZZ = settings(max_examples=200, deadline=None, database=None,

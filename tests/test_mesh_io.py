@@ -11,8 +11,9 @@ from xfemcontact.mesh.generate import rectangle
 from xfemcontact.mesh.raw import RawMesh
 from xfemcontact.mesh.read import from_meshio, read_mesh
 from xfemcontact.mesh.refine import _child_table, refine_uniform
+from conftest import SHARED_MESHES
 
-MESHES = Path("/work/shared/meshes")
+MESHES = SHARED_MESHES
 SSNV509 = {"ssnv509a": ("QUAD8", 1600, 4961, 40), "ssnv509b": ("TRIA6", 800, 1681, 20)}
 SIDES = {"LIG1": (1, 0.0), "LIG2": (0, 10.0), "LIG3": (1, 10.0), "LIG4": (0, 0.0)}
 CORNERS = {"P1": (0, 0), "P2": (10, 0), "P3": (10, 10), "P4": (0, 10)}

@@ -290,8 +290,9 @@ def straight(cell, name):
     spts = integration.segment_points(mesh.element, mesh.x[mesh.cell_nodes[segs.cells]], segs, 4)
     finite &= all(np.isfinite(a).all() for a in (geo.phi, geo.ratio, geo.subcells.nodes, spts.x,
                                                  spts.w, spts.normal))
-    i, j, v = model.K.getValuesCSR()
-    A = sp.csr_matrix((v, j, i), shape=model.K.getSize()).toarray()
+    K = model.K.convert("aij")            # the default Cholesky keeps only the upper triangle
+    i, j, v = K.getValuesCSR()
+    A = sp.csr_matrix((v, j, i), shape=K.getSize()).toarray()
     finite &= bool(np.isfinite(A).all())
     cond = float(np.linalg.cond(A)) if finite else np.inf
     dg = 1.0 / np.sqrt(np.abs(np.diag(A)))

@@ -21,8 +21,8 @@ from xfemcontact.fem.elasticity import hooke
 from xfemcontact.mesh import plex
 from xfemcontact.post import fields
 from xfemcontact.solver.loops import create_loops
-from xfemcontact.solver.newton import create_snes
-from xfemcontact.timing import phase
+from xfemcontact.solver.newton import create_snes, matrix_format
+from xfemcontact.timing import phase, release_heap
 from xfemcontact.xfem import geometry, integration, levelset
 
 
@@ -186,7 +186,8 @@ class Model:
                                                self.segment_points, c.contact_init is not False,
                                                c.seuil_init)
         remote = self.remote_points if self.space is not None else None
-        self.K = pattern.create_matrix(layout, self._couplings(), remote)
+        self.K = pattern.create_matrix(layout, self._couplings(), remote,
+                                       symmetric=matrix_format() == "sbaij")
         if self.interface is not None:
             self._zero_interface_pattern(self.K)
         lift = layout.local_array()
@@ -240,6 +241,7 @@ class Model:
             self.comm, self.residual, self.jacobian, self.J, f,
             newton.resi_glob_rela, newton.iter_glob_maxi, lambda: self.load_norm)
         self.loops = None
+        release_heap()
         with phase("solve"):
             if self.interface is None:
                 self.snes.solve(None, self.x)
@@ -266,7 +268,8 @@ class Model:
             return None
         ksp = self.snes.getKSP()
         pc = ksp.getPC()
-        info = {"ksp": ksp.getType(), "pc": pc.getType(), "jacobians": self.n_jacobians}
+        info = {"ksp": ksp.getType(), "pc": pc.getType(), "matrix": self.J.getType(),
+                "jacobians": self.n_jacobians}
         try:
             info["solver"] = pc.getFactorSolverType()
         except Exception:      # not a factorising preconditioner

@@ -9,6 +9,11 @@ Rows of points owned by another process are summed onto the owner through the
 point SF.  Counts are upper bounds where two processes see the same coupling
 (partition boundaries), never lower ones.
 
+With ``symmetric`` the matrix is SBAIJ (block size 1): only the upper triangle
+is stored (the lower entries of element matrices are ignored), and a row
+counts only the columns at or after it: the adjacent points whose dofs come
+later in the global numbering, and the point's own dofs from the row's on.
+
 Points outside this process's chart (merged multipliers held elsewhere) are
 "remote points": they are appended after the local nodes with their owner rank,
 global offset and number of free dofs, and their rows travel by MPI to the owner.
@@ -51,20 +56,25 @@ def _ghost_owners(mesh):
     return owner_of_point[mesh.node_points[~mesh.node_owned]]
 
 
-def create_matrix(layout, blocks, remote=None):
-    """A preallocated AIJ matrix for the element couplings ``blocks``.
+def create_matrix(layout, blocks, remote=None, symmetric=False):
+    """A preallocated matrix for the element couplings ``blocks``: AIJ, or SBAIJ
+    (upper triangle) when ``symmetric``.
 
     ``blocks``: list of int arrays ``(ne, k)`` of point indices in the point
     space (local nodes, then remote points; -1 entries are ignored).
     ``remote``: (first, nfree, owner) of remote points, or None.
     """
     space = PointSpace(layout, remote)
-    d, o = _point_counts(space, blocks)
-    d_nnz, o_nnz = _dof_counts(layout, space, d, o)
+    d, o = _point_counts(space, blocks, upper=symmetric)
+    d_nnz, o_nnz = _dof_counts(layout, space, d, o, upper=symmetric)
     comm = layout.mesh.comm
     n, N = layout.owned_size, layout.global_size
-    A = PETSc.Mat().createAIJ(((n, N), (n, N)), nnz=(d_nnz.astype(PETSc.IntType), o_nnz.astype(PETSc.IntType)),
-                              comm=comm)
+    nnz = (d_nnz.astype(PETSc.IntType), o_nnz.astype(PETSc.IntType))
+    if symmetric:
+        A = PETSc.Mat().createSBAIJ(((n, N), (n, N)), 1, nnz=nnz, comm=comm)
+        A.setOption(PETSc.Mat.Option.IGNORE_LOWER_TRIANGULAR, True)
+    else:
+        A = PETSc.Mat().createAIJ(((n, N), (n, N)), nnz=nnz, comm=comm)
     A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
     A.setOption(PETSc.Mat.Option.KEEP_NONZERO_PATTERN, True)
     return A
@@ -92,19 +102,32 @@ def _incidence(blocks, npoints):
     return E
 
 
-def _point_counts(space, blocks):
-    """Per point: free dofs of adjacent points owned like the point (d) or not (o)."""
+def _point_counts(space, blocks, upper=False):
+    """Per point: free dofs of adjacent points owned like the point (d) or not (o).
+
+    ``upper``: only the other points whose dofs come after the point's (the
+    point's own dofs are added per row by :func:`_expand`).
+    """
     npts = len(space.first)
     E = _incidence(blocks, npts).astype(np.int32)
-    A = (E.T @ E).tocoo()
-    same = space.owner[A.row] == space.owner[A.col]
-    w = space.nfree[A.col]
-    d = np.bincount(A.row, weights=w * same, minlength=npts).astype(np.int64)
-    o = np.bincount(A.row, weights=w * ~same, minlength=npts).astype(np.int64)
-    return d, o
+    A = (E.T @ E).tocsr()
+    A.data[:] = 1                                  # adjacency, not multiplicity
+    if upper:
+        rows = np.repeat(np.arange(npts), np.diff(A.indptr))
+        A.data[space.first[A.indices] <= space.first[rows]] = 0
+        A.eliminate_zeros()
+    total = A @ space.nfree
+    owners = np.unique(space.owner)
+    if len(owners) <= 1:
+        return total, np.zeros(npts, dtype=np.int64)
+    d = np.zeros(npts, dtype=np.int64)
+    for r in owners:                               # a few ranks: one sparse product each
+        rows = space.owner == r
+        d[rows] = A[rows] @ (space.nfree * (space.owner == r))
+    return d, total - d
 
 
-def _dof_counts(layout, space, d, o):
+def _dof_counts(layout, space, d, o, upper=False):
     """Sum counts onto owners and expand them to every owned dof row."""
     mesh = layout.mesh
     comm = mesh.comm
@@ -121,20 +144,25 @@ def _dof_counts(layout, space, d, o):
     o_nnz = np.zeros(n, dtype=np.int64)
     own = (space.owner[:nl] == rank) & (space.nfree[:nl] > 0)
     _expand(d_nnz, o_nnz, space.first[:nl][own] - layout.ownership_start, space.nfree[:nl][own],
-            d_loc[own], o_loc[own])
+            d_loc[own], o_loc[own], upper)
     for first, nfree, dd, oo in received:
-        _expand(d_nnz, o_nnz, first - layout.ownership_start, nfree, dd, oo)
+        _expand(d_nnz, o_nnz, first - layout.ownership_start, nfree, dd, oo, upper)
     np.minimum(d_nnz, n, out=d_nnz)
     np.minimum(o_nnz, layout.global_size - n, out=o_nnz)
     return d_nnz, o_nnz
 
 
-def _expand(d_nnz, o_nnz, start, count, d, o):
+def _expand(d_nnz, o_nnz, start, count, d, o, upper=False):
+    """Point counts onto each of the point's ``count`` dof rows from ``start``; with
+    ``upper`` row ``i`` of a point also holds its own dofs ``i ..``."""
     if len(start) == 0:
         return
-    rows = np.repeat(start, count) + _ranges(count)
+    i = _ranges(count)
+    rows = np.repeat(start, count) + i
     d_nnz[rows] += np.repeat(d, count)
     o_nnz[rows] += np.repeat(o, count)
+    if upper:
+        d_nnz[rows] += np.repeat(count, count) - i
 
 
 def _ranges(count):

@@ -238,6 +238,31 @@ def _smallest_scaled_eigenvalue(G):
     return eigsh(A, k=1, sigma=-1e-3, which="LM", return_eigenvectors=False)[0]
 
 
+def _packet_eigenvalues(G, order, bounds):
+    """Smallest Jacobi-scaled eigenvalue of every packet's diagonal block of ``G``.
+
+    Packet ``c`` holds the vertices ``order[bounds[c]:bounds[c + 1]]``; packets of
+    one size are solved as one batch of small dense problems.
+    """
+    sizes = np.diff(bounds)
+    lams = np.empty(len(sizes))
+    for m in np.unique(sizes):
+        pk = np.nonzero(sizes == m)[0]
+        if m > 300:
+            for c in pk:
+                members = order[bounds[c]:bounds[c + 1]]
+                lams[c] = _smallest_scaled_eigenvalue(G[members][:, members])
+            continue
+        idx = order[bounds[pk][:, None] + np.arange(m)]                          # (k, m)
+        rows = np.broadcast_to(idx[:, :, None], (len(pk), m, m)).ravel()
+        cols = np.broadcast_to(idx[:, None, :], (len(pk), m, m)).ravel()
+        B = np.asarray(G[rows, cols]).reshape(len(pk), m, m)
+        d = np.diagonal(B, axis1=1, axis2=2)
+        s = 1.0 / np.sqrt(np.where(d > 0, d, 1.0))
+        lams[pk] = np.linalg.eigvalsh(B * s[:, :, None] * s[:, None, :])[:, 0]
+    return lams
+
+
 def _tie_kernels(space, mesh, edges, r, lin_at_points, weights):
     ids = space.ids
     keep = (edges[:, 0] >= 0) & np.isin(edges[:, 0], ids) & np.isin(edges[:, 1], ids)
@@ -258,15 +283,17 @@ def _tie_kernels(space, mesh, edges, r, lin_at_points, weights):
     order = np.argsort(comp, kind="stable")
     bounds = np.searchsorted(comp[order], np.arange(ncomp + 1))
     centrality = np.abs(rr - 0.5)
-    smallest = np.inf
-    for c in range(ncomp):
+    lams = _packet_eigenvalues(G, order, bounds)
+    fine = lams >= kernel
+    smallest = lams[fine].min() if fine.any() else np.inf
+    for c in np.nonzero(lams < kernel)[0]:             # the few packets that need ties
         members = order[bounds[c]:bounds[c + 1]]
         cand = np.nonzero(comp[ia] == c)[0]
         cand = cand[np.lexsort((e[cand, 1], e[cand, 0], centrality[cand]))]
         local = {mbr: i for i, mbr in enumerate(members)}
         classes = np.arange(len(members))
         Gp = G[members][:, members]
-        lam = _smallest_scaled_eigenvalue(Gp)
+        lam = lams[c]
         for j in cand:
             if lam >= kernel:
                 break

@@ -6,6 +6,11 @@ of the symmetric indefinite tangent; ``-pc_type lu`` for LU), full Newton
 steps (``-snes_linesearch_type basic``, as code_aster), MUMPS null-pivot
 detection off (``-mat_mumps_icntl_24 0``, as the user asked).
 
+The Jacobian is stored as SBAIJ (upper triangle only: the tangent is symmetric)
+when the preconditioner factors symmetrically (``-pc_type cholesky``, the
+default), as AIJ otherwise; ``-mat_type aij`` or ``sbaij`` chooses.  SBAIJ halves
+the matrix and lets MUMPS read it without a copy of its values.
+
 Convergence follows code_aster's RESI_GLOB_RELA: the residual norm relative to
 the norm of the applied loads (external forces and the forces of imposed
 displacements), so that a Newton solve that starts converged stops at once
@@ -13,6 +18,7 @@ without factorising.  ``-snes_rtol`` overrides RESI_GLOB_RELA, ``-snes_max_it``
 ITER_GLOB_MAXI; ``-snes_atol`` still applies.
 """
 from xfemcontact._petsc import PETSc
+from xfemcontact.errors import XfcError
 
 DEFAULT_OPTIONS = {
     "ksp_type": "preonly",
@@ -29,6 +35,25 @@ def set_default_options(prefix=""):
     for key, value in DEFAULT_OPTIONS.items():
         if not opts.hasName(prefix + key):
             opts.setValue(prefix + key, value)
+
+
+#: preconditioners that factor a symmetric matrix (SBAIJ storage by default)
+SYMMETRIC_PCS = ("cholesky", "icc")
+
+
+def matrix_format(prefix=""):
+    """``"sbaij"`` or ``"aij"``: the Jacobian's storage (see the module docstring)."""
+    set_default_options(prefix)
+    opts = PETSc.Options()
+    given = (opts.getString(prefix + "mat_type", "") or "").lower()
+    if given:
+        if given in ("sbaij", "seqsbaij", "mpisbaij"):
+            return "sbaij"
+        if given in ("aij", "seqaij", "mpiaij"):
+            return "aij"
+        raise XfcError(f"-{prefix}mat_type {given}: the Jacobian is assembled as aij or sbaij",
+                       collective=True)
+    return "sbaij" if opts.getString(prefix + "pc_type", "") in SYMMETRIC_PCS else "aij"
 
 
 class LoadRelativeTest:
