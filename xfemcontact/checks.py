@@ -362,8 +362,8 @@ def _node_cells(cells, n):
     order = np.argsort(node, kind="stable")
     cell = (order // cells.shape[1])
     indptr = np.zeros(n + 1, dtype=np.int64)
-    np.add.at(indptr, node + 1, 1)
-    return np.cumsum(indptr), cell
+    indptr[1:] = np.cumsum(np.bincount(node, minlength=n))
+    return indptr, cell
 
 
 def _incident(incid, nodes):

@@ -60,7 +60,9 @@ def cell_means(mesh, values):
     sig = np.zeros((nc, 3))
     eps = np.zeros((nc, 3))
     for v in values:
-        np.add.at(area, v.cells, v.w.sum(axis=1))
-        np.add.at(sig, v.cells, np.einsum("kq,kqi->ki", v.w, v.stress))
-        np.add.at(eps, v.cells, np.einsum("kq,kqi->ki", v.w, v.strain))
+        area += np.bincount(v.cells, v.w.sum(axis=1), minlength=nc)
+        ws, we = np.einsum("kq,kqi->ik", v.w, v.stress), np.einsum("kq,kqi->ik", v.w, v.strain)
+        for i in range(3):
+            sig[:, i] += np.bincount(v.cells, ws[i], minlength=nc)
+            eps[:, i] += np.bincount(v.cells, we[i], minlength=nc)
     return sig / area[:, None], eps / area[:, None]

@@ -87,11 +87,9 @@ def build(mesh, phi):
 def _opposite_in_support(mesh, side, node_side):
     """Nodes whose support has a part on the side opposite to them."""
     nodes = mesh.cell_nodes
-    has_minus = (side <= 0)[:, None] & np.ones(nodes.shape, bool)
-    has_plus = (side >= 0)[:, None] & np.ones(nodes.shape, bool)
-    count = np.zeros((len(mesh.x), 2), dtype=np.int64)
-    np.add.at(count[:, 0], nodes[has_minus], 1)
-    np.add.at(count[:, 1], nodes[has_plus], 1)
+    n = len(mesh.x)
+    count = np.stack([np.bincount(nodes[side <= 0].ravel(), minlength=n),
+                      np.bincount(nodes[side >= 0].ravel(), minlength=n)], axis=1)
     count = reduce_nodes(mesh, count, "sum")
     return np.where(node_side > 0, count[:, 0] > 0, count[:, 1] > 0)
 
