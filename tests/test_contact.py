@@ -125,6 +125,29 @@ def test_mpi_same_interface_values(tmp_path):
         assert np.allclose(a[k], b[k], rtol=0, atol=1e-10), k
 
 
+@pytest.mark.mpi
+@pytest.mark.slow
+def test_mpi_three_processes_partition_crosses_interface(tmp_path):
+    """SSNV509 b refined on 3 processes: the partition boundaries cut the interface (cut
+    cells on several processes) and the interface values are those of one process."""
+    one, three = tmp_path / "one", tmp_path / "three"
+    assert run_cli(["run", CASES / "ssnv509b_refined.toml", "-o", one]).returncode == 0
+    p = run_cli(["run", CASES / "ssnv509b_refined.toml", "-o", three], np=3)
+    assert p.returncode == 0, p.stdout + p.stderr
+    r1, r3 = results(one), results(three)
+    assert r3["processes"] == 3
+    per_process = r3["geometry"]["cut_cells_per_process"]
+    assert sum(per_process) == r1["geometry"]["cut_cells"] and sum(c > 0 for c in per_process) >= 2
+    for k in ("enriched_nodes", "dropped_heaviside_nodes"):
+        assert r3["geometry"][k] == r1["geometry"][k], k
+    m1, m3 = r1["multipliers"], r3["multipliers"]
+    assert {k: v for k, v in m3.items() if not isinstance(v, float)} == \
+        {k: v for k, v in m1.items() if not isinstance(v, float)}
+    a, b = r1["interface"], r3["interface"]
+    for k in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding"):
+        assert np.allclose(a[k], b[k], rtol=0, atol=1e-10), k
+
+
 def test_batched_packet_eigenvalues_match_one_by_one():
     """Packets of several sizes (one singular) solved in batches = solved one at a time."""
     import scipy.sparse as sp

@@ -55,6 +55,7 @@ def geometry_summary(model):
     mpi = model.comm.tompi4py()
     r = geo.readjustment
     return {"cut_cells": mpi.allreduce(len(geo.cut_cells)),
+            "cut_cells_per_process": mpi.allgather(len(geo.cut_cells)),
             "edge_segments": mpi.allreduce(len(geo.edge_segments)),
             "enriched_nodes": mpi.allreduce(int((geo.enriched & model.mesh.node_owned).sum())),
             "dropped_heaviside_nodes": mpi.allreduce(geo.dropped),
