@@ -37,6 +37,12 @@ partition:
    ELIM_ARETE='ELIM': one shared dof, no extra unknown).  On curved interfaces
    nothing is merged and the accuracy of the raw space is kept; on straight
    ones exactly the kernel is removed.
+3. *Gradient ties.*  The tie of a packet that is weak but not singular (a
+   locally flat spot of a curved interface, on quadrangles) becomes
+   lam_a = lam_b + (x_a - x_b) . g, g the multiplier's gradient read from the
+   neighbouring crossed edges: the weak mode goes, linear fields stay exact,
+   where a merge would force zero variation along the edge.  The reported
+   smallest eigenvalue is that of the packet with the merge.
 
 Merged vertices share the dof held by the representative (the smallest input
 node index of the class).
@@ -60,6 +66,8 @@ WEAK = {"QUAD8": 0.02, "TRIA6": 0.05}
 #: only.  On triangles a packet is a long chain of crossed edges whose smallest
 #: eigenvalue measures the chain as a whole: only true kernels are tied.
 KERNEL = {"QUAD8": 1e-3, "TRIA6": 1e-10}
+#: below this a packet is singular (straight interface): its ties stay merges
+SINGULAR = 1e-10
 
 
 @dataclass
@@ -113,6 +121,7 @@ class MultiplierSpace:
     n_weak: int = 0
     smallest: float = np.inf   # smallest scaled trace eigenvalue over the packets, after ties
     algo: str = "AUTO"
+    tie_edges: list = None
 
     def representative(self, gids):
         return self.rep[np.searchsorted(self.ids, gids)]
@@ -164,7 +173,63 @@ def build(mesh, segments, algo="AUTO", lin_at_points=None, weights=None):
                             n_weak=int((~strong).sum()))
     if algo != "NON" and len(carriers):
         _tie_kernels(space, mesh, edges, r, lin_at_points, weights)
+        if space.tie_edges:
+            space = _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts)
     return space
+
+
+def _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts):
+    """Turn the ties of weak (not singular) packets into gradient ties; a new space.
+
+    A merge tie (a, b) forces lam_a = lam_b: no variation of the multiplier along
+    the edge, which costs accuracy where the pressure varies.  A gradient tie sets
+    lam_a = lam_b + (x_a - x_b) . g, g the least-squares gradient of the multiplier
+    read from the other crossed edges of the cells holding (a, b): exact for linear
+    fields, and it still removes the edge's own weak mode.  Ties of singular packets
+    (eigenvalue below ``SINGULAR``: straight interfaces, whose kernel *is* a linear
+    field) and ties without a neighbouring crossed edge stay merges.
+    """
+    pos = {g: i for i, g in enumerate(ids)}
+    cell_edges = edges.reshape(-1, 2, 2)
+    tied = {}
+    for a, b, lam in space.tie_edges:
+        if lam < SINGULAR or a in tied or b in tied:
+            continue
+        in_cells = np.nonzero(np.isin(cverts, [a, b]).sum(axis=1) == 2)[0]
+        nb = {tuple(sorted(e)) for c in in_cells for e in cell_edges[c] if e[0] >= 0}
+        nb = [e for e in nb if set(e) != {a, b} and all(strong[pos[v]] and v not in tied for v in e)]
+        if not nb:
+            continue
+        D = np.array([xv[pos[p]] - xv[pos[q]] for p, q in nb])
+        G = np.linalg.pinv(D)                                        # (2, k)
+        w = (xv[pos[a]] - xv[pos[b]]) @ G                            # (k,)
+        roots, wts = [b], [1.0]
+        for (p, q), wk in zip(nb, w):
+            roots += [p, q]
+            wts += [wk, -wk]
+        tied[a] = (np.array(roots), np.array(wts))
+    strong = strong.copy()
+    for a in tied:
+        strong[pos[a]] = False
+    ext = dict(ext)
+    for g, (roots, wts) in list(ext.items()):           # weak vertices extrapolated from a tied one
+        if any(r in tied for r in roots):
+            rr, ww = [], []
+            for r, w in zip(roots, wts):
+                sub_roots, sub_wts = tied.get(r, ([r], [1.0]))
+                rr += list(sub_roots)
+                ww += list(w * np.asarray(sub_wts))
+            ext[g] = (np.array(rr), np.array(ww))
+    ext.update(tied)
+    carriers_of, T = _cell_maps(topo, nv, strong, ids, ext)
+    carriers = ids[strong]
+    new = MultiplierSpace(carriers, carriers.copy(), topo, carriers_of, T, algo=space.algo,
+                          n_weak=space.n_weak, n_packets=space.n_packets, n_ties=space.n_ties,
+                          smallest=space.smallest)
+    for a, b, _ in space.tie_edges:                 # the ties that stay merges
+        if a not in tied and b not in tied:
+            new.rep[new.rep == max(a, b)] = min(a, b)
+    return new
 
 
 def _aggregation(ids, xv, strong, cverts, cx):
@@ -303,6 +368,7 @@ def _tie_kernels(space, mesh, edges, r, lin_at_points, weights):
             lo, hi = min(a, b), max(a, b)
             classes[classes == hi] = lo
             space.n_ties += 1
+            space.tie_edges = (space.tie_edges or []) + [(int(ids[ia[j]]), int(ids[ib[j]]), float(lams[c]))]
             P = sp.csr_matrix((np.ones(len(members)), (np.arange(len(members)), classes)),
                               shape=(len(members), len(members)))
             used = np.unique(classes)
