@@ -47,7 +47,7 @@ partition:
 Merged vertices share the dof held by the representative (the smallest input
 node index of the class).
 """
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
@@ -121,7 +121,7 @@ class MultiplierSpace:
     n_weak: int = 0
     smallest: float = np.inf   # smallest scaled trace eigenvalue over the packets, after ties
     algo: str = "AUTO"
-    tie_edges: list = None
+    tie_edges: list = field(default_factory=list)   # [(a, b, packet eigenvalue)], global ids
 
     def representative(self, gids):
         return self.rep[np.searchsorted(self.ids, gids)]
@@ -211,15 +211,7 @@ def _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts):
     strong = strong.copy()
     for a in tied:
         strong[pos[a]] = False
-    ext = dict(ext)
-    for g, (roots, wts) in list(ext.items()):           # weak vertices extrapolated from a tied one
-        if any(r in tied for r in roots):
-            rr, ww = [], []
-            for r, w in zip(roots, wts):
-                sub_roots, sub_wts = tied.get(r, ([r], [1.0]))
-                rr += list(sub_roots)
-                ww += list(w * np.asarray(sub_wts))
-            ext[g] = (np.array(rr), np.array(ww))
+    ext = {g: _substitute(roots, wts, tied) for g, (roots, wts) in ext.items()}
     ext.update(tied)
     carriers_of, T = _cell_maps(topo, nv, strong, ids, ext)
     carriers = ids[strong]
@@ -230,6 +222,16 @@ def _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts):
         if a not in tied and b not in tied:
             new.rep[new.rep == max(a, b)] = min(a, b)
     return new
+
+
+def _substitute(roots, wts, tied):
+    """``(roots, weights)`` of an extrapolated vertex with every tied root replaced by its own."""
+    rr, ww = [], []
+    for r, w in zip(roots, wts):
+        sub_roots, sub_wts = tied.get(r, ([r], [1.0]))
+        rr += list(sub_roots)
+        ww += list(w * np.asarray(sub_wts))
+    return np.array(rr), np.array(ww)
 
 
 def _aggregation(ids, xv, strong, cverts, cx):
@@ -368,7 +370,7 @@ def _tie_kernels(space, mesh, edges, r, lin_at_points, weights):
             lo, hi = min(a, b), max(a, b)
             classes[classes == hi] = lo
             space.n_ties += 1
-            space.tie_edges = (space.tie_edges or []) + [(int(ids[ia[j]]), int(ids[ib[j]]), float(lams[c]))]
+            space.tie_edges.append((int(ids[ia[j]]), int(ids[ib[j]]), float(lams[c])))
             P = sp.csr_matrix((np.ones(len(members)), (np.arange(len(members)), classes)),
                               shape=(len(members), len(members)))
             used = np.unique(classes)
