@@ -235,3 +235,18 @@ def test_enrichment_rule_ssnv509_quad8(studies):
     print(f"\nSSNV509 QUAD8 20x20: {int(geo.enriched.sum())} enriched nodes of {n} "
           f"({len(cut_nodes)} nodes of {st['cut']} cut cells), min support ratio "
           f"{r.min():.3e}, dropped {geo.dropped}")
+
+
+def test_cell_max_at_nodes_is_the_scatter_max():
+    """The sort-based scatter-max equals np.maximum.at, nodes of no cell stay 0."""
+    from xfemcontact.xfem.levelset import cell_max_at_nodes
+    rng = np.random.default_rng(3)
+    cells = rng.integers(0, 50, size=(40, 6))
+    values = rng.random(60)                    # nodes 50..59 belong to no cell
+    want = np.zeros(60)
+    for col in cells.T:
+        np.maximum.at(want, col, values[cells].max(axis=1))
+    got = cell_max_at_nodes(cells, values)
+    np.testing.assert_array_equal(got, want)
+    assert not got[50:].any()
+    assert cell_max_at_nodes(np.zeros((0, 6), int), values).sum() == 0.0

@@ -512,3 +512,59 @@ def test_refine_does_not_modify_its_input():
     refine_uniform(m, levels=2)
     np.testing.assert_array_equal(m.points, before.points)
     np.testing.assert_array_equal(m.cells, before.cells)
+
+
+# -- DMPlex built from our own edge DAG ---------------------------------------------
+def _plex_summary(dm):
+    """Cones, orientations, coordinates and boundary marks of every point."""
+    from xfemcontact.mesh.plex import _BOUNDARY
+    pstart, pend = dm.getChart()
+    cones = [tuple(dm.getCone(p)) for p in range(pstart, pend)]
+    orient = [tuple(dm.getConeOrientation(p)) for p in range(pstart, pend)]
+    strata = [dm.getDepthStratum(d) for d in range(3)]
+    boundary = tuple(dm.getLabel(_BOUNDARY).getStratumIS(1).getIndices())
+    return cones, orient, strata, dm.getCoordinatesLocal().getArray().copy(), boundary
+
+
+@pytest.mark.parametrize("cell", ["QUAD8", "TRIA6"])
+def test_plex_from_edge_dag_equals_petsc_interpolation(cell, monkeypatch):
+    """The DAG we hand to DMPlexCreateFromDAG is the one createFromCellList(interpolate)
+    builds: same points, cones, orientations, coordinates, labels and node map."""
+    from xfemcontact._petsc import PETSc
+    from xfemcontact.mesh import plex
+    raw = rectangle(nx=5, ny=4, cell=cell, diagonal="alternate")
+    assert plex._dag_function()
+    dm, nodes = plex._build_serial(raw, PETSc.COMM_SELF)
+    monkeypatch.setattr(plex, "_DAG_FUNCTION", False)
+    ref, ref_nodes = plex._build_serial(raw, PETSc.COMM_SELF)
+    got, want = _plex_summary(dm), _plex_summary(ref)
+    for g, w in zip(got[:3], want[:3]):
+        assert g == w
+    np.testing.assert_array_equal(got[3], want[3])
+    assert got[4] == want[4]
+    np.testing.assert_array_equal(nodes, ref_nodes)
+    for name in raw.group_names():
+        got, want = ([tuple(lab.getStratumIS(v).getIndices()) if lab.getStratumSize(v) else ()
+                      for v in (plex.ENTITY, plex.NODE)] for lab in (dm.getLabel(name), ref.getLabel(name)))
+        assert got == want and any(want)
+
+
+@needs_med
+def test_plex_from_edge_dag_on_code_aster_mesh():
+    """Every edge of a cell runs from its vertex i to vertex i + 1, whatever the
+    input orientation of the neighbouring cells (code_aster's TRIA6 mesh)."""
+    from xfemcontact._petsc import PETSc
+    from xfemcontact.mesh import plex
+    raw = read_mesh(MESHES / "ssnv509b.mmed")
+    dm, nodes = plex._build_serial(raw, PETSc.COMM_SELF)
+    cs, ce = dm.getHeightStratum(0)
+    vs = dm.getDepthStratum(0)[0]
+    vertex_node = nodes[vs:vs + raw.vertex_nodes.size]
+    for c in range(cs, ce, 37):
+        cone, orient = dm.getCone(c), dm.getConeOrientation(c)
+        for i, (e, o) in enumerate(zip(cone, orient)):
+            a, b = vertex_node[dm.getCone(e) - vs]
+            if o < 0:
+                a, b = b, a
+            assert (a, b) == (raw.cells[c, i], raw.cells[c, (i + 1) % 3])
+            assert nodes[e] == raw.cells[c, 3 + i]

@@ -158,10 +158,9 @@ def _group_nodes(raw, groups):
 
 def _roundoff(cells, phi):
     """``phi`` with |LN| <= ROUNDOFF * (largest |LN| of the cells holding the node) set to 0."""
-    cmax = np.abs(phi[cells]).max(axis=1)
-    scale = np.zeros(len(phi))
-    for col in cells.T:
-        np.maximum.at(scale, col, cmax)
+    from xfemcontact.xfem.levelset import cell_max_at_nodes
+
+    scale = cell_max_at_nodes(cells, np.abs(phi))
     out = phi.copy()
     out[np.abs(phi) <= ROUNDOFF * scale] = 0.0
     return out
