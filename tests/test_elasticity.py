@@ -384,3 +384,27 @@ def test_mpi_cli_same_tests_and_files(tmp_path):
         assert a["ok"] and b["ok"]
     assert outs[1]["mesh"] == outs[2]["mesh"]
     assert outs[1]["dofs"] == outs[2]["dofs"]
+
+
+@pytest.mark.parametrize("cell", ["QUAD8", "TRIA6"])
+def test_affine_stiffness_equals_quadrature(cell):
+    """The closed-form affine stiffness equals Gauss quadrature of B^T C B, for a batch of
+    identical cells (the shared-Jacobian shortcut) and for distinct ones."""
+    from xfemcontact.assembly import bulk
+    from xfemcontact.fem import elasticity
+    from xfemcontact.fem.elements import element, physical_gradients
+    el = element(cell)
+    D = hooke(2.0e5, 0.3, "C_PLAN")
+    ps = bulk.PlainStiffness(el, D)
+    base = el.ref_nodes.copy()
+    shear = np.array([[1.3, 0.4], [-0.2, 0.9]])
+    same = np.repeat((base @ shear.T)[None], 5, axis=0)
+    rng = np.random.default_rng(7)
+    distinct = np.stack([base @ (shear + 0.1 * rng.random((2, 2))).T + rng.random(2) for _ in range(5)])
+    q, w = el.quadrature(4)
+    for x in (same, distinct):
+        J = el.jacobians(x, q)
+        G, det = physical_gradients(el.dshape(q)[None], J)
+        want = elasticity.stiffness(G, w[None] * det, elasticity.tensor(D))
+        got = ps(x)
+        assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()

@@ -78,11 +78,14 @@ def affine_stiffness(J, basis):
 
     With M = J^-1: K[i f, j g] = det J sum_{a k b l} C_ikjl M_ak M_bl R_ab[f, g],
     i.e. one product of the per-cell ``det J M (x) M`` with the constant ``basis``.
+    Cells that all have the same J (a regular grid) get a read-only broadcast view.
     """
-    det = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
-    M = np.linalg.inv(J)
-    MM = (M[:, :, :, None, None] * M[:, None, None, :, :]) * det[:, None, None, None, None]
     n = int(round(np.sqrt(basis.shape[1])))
+    if len(J) > 1 and (J == J[0]).all():     # a structured mesh: one product for all
+        return np.broadcast_to(affine_stiffness(J[:1], basis), (len(J), n, n))
+    det = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
+    M = np.stack([J[:, 1, 1], -J[:, 0, 1], -J[:, 1, 0], J[:, 0, 0]], axis=1).reshape(-1, 2, 2) / det[:, None, None]
+    MM = (M[:, :, :, None, None] * M[:, None, None, :, :]) * det[:, None, None, None, None]
     return (MM.reshape(len(J), 16) @ basis).reshape(len(J), n, n)
 
 
