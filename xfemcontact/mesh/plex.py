@@ -44,12 +44,13 @@ def _build_serial(raw, comm):
         coords = raw.points[vnodes]
         dag = _edge_dag(raw, vindex, len(vnodes))
     else:
-        coords, dag = np.zeros((0, 2)), None
+        coords, dag = np.zeros((0, 2)), _EdgeDag.empty(element(raw.cell_type).edges.shape[0])
     if _dag_function():
         dm = _create_from_dag(comm, dag, coords)
-    else:               # petsc4py's own (slower) interpolation
+    else:               # petsc4py's own (slower) interpolation numbers the edges itself
         cells = (vindex[raw.cells[:, :nv]] if comm.rank == 0 else np.zeros((0, nv))).astype(np.int32)
         dm = PETSc.DMPlex().createFromCellList(2, cells, coords, interpolate=True, comm=comm)
+        dag = None
     dm.setName("mesh")
     if comm.rank == 0:
         node_of_point, cones = _match_nodes(dm, raw, vnodes, vindex, dag)
@@ -70,6 +71,11 @@ class _EdgeDag:
     cell_edges: np.ndarray    # (nc, nec) edge index of each cell edge
     orientation: np.ndarray   # (nc, nec) 0 if the cell runs along the edge's cone, -1 if against
     cones: np.ndarray         # (ne, 2) vertex indices (into the vertex nodes) of each edge
+
+    @classmethod
+    def empty(cls, nec):
+        """No cells (ranks other than 0 before distribution)."""
+        return cls(np.zeros((0, nec), np.int64), np.zeros((0, nec), np.int64), np.zeros((0, 2), np.int64))
 
 
 def _edge_dag(raw, vindex, nvert):
@@ -117,13 +123,10 @@ def _ctype_int():
 def _create_from_dag(comm, dag, coords):
     """Interpolated DMPlex (cells, then vertices, then edges) from an :class:`_EdgeDag`."""
     it = PETSc.IntType
-    nc, nec = dag.cell_edges.shape if dag is not None else (0, 0)
-    nvert, ne = len(coords), len(dag.cones) if dag is not None else 0
+    (nc, nec), nvert, ne = dag.cell_edges.shape, len(coords), len(dag.cones)
     sizes = np.r_[np.full(nc, nec), np.zeros(nvert, int), np.full(ne, 2)].astype(it)
-    cones = np.r_[(dag.cell_edges + nc + nvert).ravel(), (dag.cones + nc).ravel()].astype(it) \
-        if dag is not None else np.zeros(0, it)
-    orient = np.r_[dag.orientation.ravel(), np.zeros(2 * ne, int)].astype(it) if dag is not None \
-        else np.zeros(0, it)
+    cones = np.r_[(dag.cell_edges + nc + nvert).ravel(), (dag.cones + nc).ravel()].astype(it)
+    orient = np.r_[dag.orientation.ravel(), np.zeros(2 * ne, int)].astype(it)
     counts = np.array([nvert, ne, nc], dtype=it)
     xyz = np.ascontiguousarray(coords, dtype=PETSc.ScalarType)
     dm = PETSc.DMPlex().create(comm=comm)
@@ -149,7 +152,7 @@ def _match_nodes(dm, raw, vnodes, vindex, dag=None):
     node_of_point = np.full(pend - pstart, -1, dtype=np.int64)
     node_of_point[vs:ve] = vnodes
     el = element(raw.cell_type)
-    if dag is not None and (cs, vs, es) == (0, ce, ve):
+    if dag is not None:
         cell_edges = dag.cell_edges + es
     else:     # one cone per cell: the only per-cell PETSc call of the mesh build
         cell_edges = np.array([dm.getCone(c) for c in range(cs, ce)], dtype=np.int64).reshape(ce - cs, -1)
