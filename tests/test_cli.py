@@ -243,3 +243,18 @@ def test_bad_case_one_line_under_mpirun(tmp_path):
     assert len(ours) == 1, proc.stderr
     assert "material.nuu" in ours[0] and "'nu'" in ours[0]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["case.toml"]
+
+
+@pytest.mark.parametrize("env, expected", [
+    ({}, "ob1"),                                                              # no launcher
+    ({"OMPI_MCA_pml": "ucx"}, "ucx"),                                         # the user's choice
+    ({"OMPI_COMM_WORLD_SIZE": "2", "OMPI_COMM_WORLD_LOCAL_SIZE": "2", "PMIX_RANK": "0"}, "ob1"),
+    ({"OMPI_COMM_WORLD_SIZE": "4", "OMPI_COMM_WORLD_LOCAL_SIZE": "2", "PMIX_RANK": "0"}, None),
+    ({"SLURM_PROCID": "0"}, None),                                            # hosts unknown
+])
+def test_open_mpi_pml_only_chosen_on_one_host(env, expected):
+    """ob1 is chosen before MPI starts only when every process is on this machine and
+    the user did not choose a PML."""
+    from xfemcontact._petsc import _single_host_pml
+    _single_host_pml(env)
+    assert env.get("OMPI_MCA_pml") == expected

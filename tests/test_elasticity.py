@@ -408,3 +408,33 @@ def test_affine_stiffness_equals_quadrature(cell):
         want = elasticity.stiffness(G, w[None] * det, elasticity.tensor(D))
         got = ps(x)
         assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
+
+
+@pytest.mark.parametrize("cell", ["QUAD8", "TRIA6"])
+def test_affine_strains_equal_physical_gradients(cell):
+    """Stresses of uncut cells: the affine path (reference gradients, one inverse
+    Jacobian per cell) gives the points, weights and strains of the general one; curved
+    cells are not taken for affine and keep the general path."""
+    from xfemcontact.fem import elasticity
+    from xfemcontact.fem.elements import element
+    from xfemcontact.post import fields
+    from xfemcontact.xfem import integration
+    el = element(cell)
+    rng = np.random.default_rng(3)
+    base = el.ref_nodes.copy()
+    cells = np.stack([base @ (np.array([[1.3, 0.4], [-0.2, 0.9]]) + 0.1 * rng.random((2, 2))).T + rng.random(2)
+                      for _ in range(6)])
+    ue = rng.standard_normal((6, 2 * el.nn))
+    pts = integration.cell_points(el, cells, np.arange(6), np.ones(6))
+    want = elasticity.strain(pts.dNdx, ue)
+    x, w, eps = fields._affine_points(el, cells, ue)
+    assert np.abs(eps - want).max() <= 1e-12 * np.abs(want).max()
+    assert np.abs(x - pts.x).max() <= 1e-14 and np.abs(w - pts.w).max() <= 1e-14
+    curved = cells.copy()
+    curved[:, el.nv] += 0.05                  # a mid-edge node off its edge: not affine
+    from xfemcontact.assembly import bulk
+    assert not bulk.affine_mask(el, curved[:1]).any()
+    x2, w2, eps2 = fields._curved_points(el, curved, ue)
+    pts2 = integration.cell_points(el, curved, np.arange(6), np.ones(6))
+    assert np.allclose(eps2, elasticity.strain(pts2.dNdx, ue), rtol=0, atol=1e-12)
+    assert np.abs(eps2 - want).max() > 1e-3   # the curved cells really differ

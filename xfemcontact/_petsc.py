@@ -6,6 +6,12 @@ Python starts.  A user who did not export ``PETSC_DIR`` would get
 ``ModuleNotFoundError: petsc4py``; we add the folder ourselves so that they never
 have to know.
 
+Open MPI picks its point-to-point layer (PML) at ``MPI_Init`` by trying each one;
+trying UCX costs 0.2 s per process and, on one machine, ends with the same ``ob1``
+shared-memory layer.  When every process runs on this machine (no launcher, or
+Open MPI reports as many local ranks as ranks) and the user has not chosen a
+PML (``OMPI_MCA_pml``), we choose ``ob1`` before MPI starts.
+
 Every module that needs PETSc does ``from xfemcontact._petsc import PETSc``.
 PETSc reads some options only when it starts (``-log_view``, ``-help``), so the
 command line stores the options it did not consume in
@@ -28,8 +34,20 @@ def _import_petsc4py():
     return petsc4py
 
 
+def _single_host_pml(env=os.environ):
+    """``OMPI_MCA_pml=ob1`` when all processes are local and no PML was chosen."""
+    if "OMPI_MCA_pml" in env:
+        return
+    size, local = env.get("OMPI_COMM_WORLD_SIZE"), env.get("OMPI_COMM_WORLD_LOCAL_SIZE")
+    launched = size is not None or any(k in env for k in ("PMIX_RANK", "PMI_RANK", "SLURM_PROCID"))
+    if not launched or (size is not None and size == local):
+        env["OMPI_MCA_pml"] = "ob1"
+
+
 def init(argv=None):
     """Initialise PETSc with ``argv`` (a list of PETSc options); idempotent."""
+    if "petsc4py.PETSc" not in sys.modules:
+        _single_host_pml()
     petsc4py = _import_petsc4py()
     if "petsc4py.PETSc" not in sys.modules:
         petsc4py.init([sys.argv[0] if sys.argv else "xfemcontact"] + list(argv or []))

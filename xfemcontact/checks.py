@@ -333,7 +333,7 @@ def rigid_body_modes(case, raw, phi=None, law=None):
             for k in np.unique(body_of):
                 groups[comp].setdefault(int(k), set()).update(bc.groups)
 
-    size = float(np.ptp(x[np.unique(cells)], axis=0).max()) if nc else 1.0
+    size = _extent(x, cells) if nc else 1.0
     tol = SAME_POSITION * max(size, 1e-300)
     bodies = np.unique(label[exists])
     for body in bodies:
@@ -429,3 +429,11 @@ def _which_body(body, label, exists, cells, x, n_bodies, separate):
         return (f" for the part on the {side} side of the interface ({where}; with "
                 f"law = \"free\" each side is a separate body)")
     return f" for the part of the mesh made of {where} (it shares no edge with the rest)"
+
+
+def _extent(x, cells):
+    """Largest side of the bounding box of the nodes that cells use, m."""
+    used = np.zeros(len(x), bool)
+    used[cells.ravel()] = True
+    xu = x[used]
+    return float(max(np.ptp(xu[:, 0]), np.ptp(xu[:, 1])))

@@ -78,10 +78,12 @@ class PlainStiffness:
         self.basis = elasticity.affine_basis(elasticity.reference_products(el.dshape(self.q), self.wq), self.C)
 
     def __call__(self, x):
-        """Element matrices ``(ne, 2 nn, 2 nn)`` of cells ``x (ne, nn, 2)``."""
+        """Element matrices ``(ne, 2 nn, 2 nn)`` of cells ``x (ne, nn, 2)`` (read-only)."""
         el = self.el
-        K = np.empty((len(x), 2 * el.nn, 2 * el.nn))
         aff = affine_mask(el, x)
+        if aff.all():               # no copy into a new array (may be a broadcast view)
+            return elasticity.affine_stiffness(el.jacobians(x, el.ref_nodes[:1])[:, 0], self.basis)
+        K = np.empty((len(x), 2 * el.nn, 2 * el.nn))
         if aff.any():
             xa = x[aff]
             J = el.jacobians(xa, el.ref_nodes[:1])[:, 0]
@@ -108,7 +110,8 @@ def add_matrices(A, batch, K, rows=slice(None)):
     g = batch.glob[rows].astype(PETSc.IntType)
     if len(g) == 0:               # petsc4py divides by the batch size
         return
-    A.setValuesRCV(g, g, K, addv=PETSc.InsertMode.ADD_VALUES)
+    # petsc4py copies a non-contiguous (broadcast) K element by element: copy it first
+    A.setValuesRCV(g, g, np.ascontiguousarray(K), addv=PETSc.InsertMode.ADD_VALUES)
 
 
 def add_lift(r_local, batch, K, x_bc, rows=slice(None)):

@@ -110,7 +110,10 @@ def _point_counts(space, blocks, upper=False):
     """
     npts = len(space.first)
     E = _incidence(blocks, npts).astype(np.int32)
-    A = (E.T @ E).tocsr()
+    A = E.T @ E
+    if A.format != "csr":                          # symmetric: its CSC arrays are its CSR arrays
+        A = A.tocsc()
+        A = sp.csr_matrix((A.data, A.indices, A.indptr), shape=A.shape)
     A.data[:] = 1                                  # adjacency, not multiplicity
     if upper:
         rows = np.repeat(np.arange(npts), np.diff(A.indptr))

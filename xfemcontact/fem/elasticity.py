@@ -83,10 +83,30 @@ def affine_stiffness(J, basis):
     n = int(round(np.sqrt(basis.shape[1])))
     if len(J) > 1 and (J == J[0]).all():     # a structured mesh: one product for all
         return np.broadcast_to(affine_stiffness(J[:1], basis), (len(J), n, n))
-    det = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
-    M = np.stack([J[:, 1, 1], -J[:, 0, 1], -J[:, 1, 0], J[:, 0, 0]], axis=1).reshape(-1, 2, 2) / det[:, None, None]
+    det, M = inverse_jacobians(J)
     MM = (M[:, :, :, None, None] * M[:, None, None, :, :]) * det[:, None, None, None, None]
     return (MM.reshape(len(J), 16) @ basis).reshape(len(J), n, n)
+
+
+def inverse_jacobians(J):
+    """``(det, M)`` of Jacobians ``J (ne, 2, 2)``: determinants ``(ne,)`` and inverses ``(ne, 2, 2)``."""
+    det = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
+    M = np.stack([J[:, 1, 1], -J[:, 0, 1], -J[:, 1, 0], J[:, 0, 0]], axis=1).reshape(-1, 2, 2) / det[:, None, None]
+    return det, M
+
+
+def affine_strain(dshape_ref, M, ue):
+    """Strains ``(ne, nq, 3)`` (Voigt) of affine cells with inverse Jacobians ``M (ne, 2, 2)``.
+
+    ``dshape_ref (nq, nn, 2)``: reference gradients at the points, the same for
+    every cell; ``ue (ne, 2 nn)`` component-blocked dofs.  The reference
+    gradient of u is one BLAS product for the batch; grad u = (du/dxi) M.
+    """
+    nq, nn, _ = dshape_ref.shape
+    ne = len(ue)
+    gref = (ue.reshape(ne * 2, nn) @ dshape_ref.transpose(1, 0, 2).reshape(nn, nq * 2)).reshape(ne, 2, nq, 2)
+    g = gref[..., 0, None] * M[:, None, None, 0, :] + gref[..., 1, None] * M[:, None, None, 1, :]
+    return np.stack([g[:, 0, :, 0], g[:, 1, :, 1], g[:, 0, :, 1] + g[:, 1, :, 0]], axis=-1)
 
 
 def strain(G, ue):

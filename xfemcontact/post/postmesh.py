@@ -283,6 +283,7 @@ def slot_locations(xs, node):
     if len(free):
         diag = _diagonal(xs)
         known = np.nonzero(key >= 0)[0]
+        known = known[_near(xs[free], xs[known], MERGE_TOL * diag)]          # cheap pre-selection
         known = known[np.unique(key[known], return_index=True)[1]]          # one slot per input node
         d, _ = cKDTree(xs[free]).query(xs[known], distance_upper_bound=MERGE_TOL * diag)
         known = known[np.isfinite(d)]                                        # input nodes that sub-cells touch
@@ -298,8 +299,33 @@ def slot_locations(xs, node):
     return rank[inv]
 
 
+def _near(xf, xk, tol):
+    """Mask of the points ``xk (K, 2)`` that may lie within ``tol`` of one of ``xf (F, 2)``:
+    those in a bin of a grid about as fine as ``xf`` is numerous (or a neighbouring
+    bin) that holds a point of ``xf``.  A superset, to be refined by an exact query."""
+    lo = np.array([xf[:, 0].min(), xf[:, 1].min()]) - 2 * tol
+    span = np.array([np.ptp(xf[:, 0]), np.ptp(xf[:, 1])]) + 4 * tol
+    nb = np.clip((span / max(span.max(), 1e-300) * np.sqrt(len(xf))).astype(np.int64) + 1, 1, 4096)
+    size = np.maximum(span / nb, tol)                              # a point within tol: next bin at most
+    occupied = np.zeros(tuple(nb + 2), bool)                       # one bin of margin on each side
+    bf = np.clip(((xf - lo) / size).astype(np.int64), 0, nb - 1) + 1
+    for dx in (-1, 0, 1):                                          # bins next to a free point
+        for dy in (-1, 0, 1):
+            occupied[bf[:, 0] + dx, bf[:, 1] + dy] = True
+    g = np.floor((xk - lo) / size)
+    inside = (g[:, 0] >= -1) & (g[:, 0] <= nb[0]) & (g[:, 1] >= -1) & (g[:, 1] <= nb[1])
+    out = np.zeros(len(xk), bool)
+    gi = g[inside].astype(np.int64) + 1
+    out[inside] = occupied[gi[:, 0], gi[:, 1]]
+    return out
+
+
 def _diagonal(xs):
-    return float(np.hypot(*(xs.max(axis=0) - xs.min(axis=0)))) or 1.0 if len(xs) else 1.0
+    """Bounding-box diagonal of ``xs (S, 2)``, 1 if empty or a single point."""
+    if len(xs) == 0:
+        return 1.0
+    # column by column: numpy reduces an (S, 2) array along axis 0 ten times slower
+    return float(np.hypot(*(np.ptp(xs[:, i]) for i in range(2)))) or 1.0
 
 
 def merge_points(xs, diag=None):
@@ -331,7 +357,7 @@ def _set_interface_values(pd, points, ploc, on_itf, samples):
     ip = np.nonzero(on_itf)[0]
     locs, first = np.unique(ploc[ip], return_index=True)
     xy = points[ip[first]]                                                    # one per location
-    diag = float(np.hypot(*(points.max(axis=0) - points.min(axis=0)))) or 1.0
+    diag = _diagonal(points)
     order = np.argsort(samples["cell"], kind="stable")
     sx = np.c_[samples["x"], samples["y"]][order]
     d, j = cKDTree(xy).query(sx, distance_upper_bound=SAMPLE_TOL * diag)

@@ -280,8 +280,8 @@ TRI6 = element("TRIA6")
 
 def subcell_jacobians(nodes, zeta):
     """det of the maps reference triangle -> parent reference coordinates at ``zeta``."""
-    J = np.matmul(nodes.swapaxes(-1, -2)[:, :, None], TRI6.dshape(zeta))      # (k, s, q, 2, 2)
-    return J[..., 0, 0] * J[..., 1, 1] - J[..., 0, 1] * J[..., 1, 0]
+    J = np.tensordot(nodes, TRI6.dshape(zeta), axes=([2], [1]))              # (k, s, 2, q, 2), one BLAS call
+    return J[:, :, 0, :, 0] * J[:, :, 1, :, 1] - J[:, :, 0, :, 1] * J[:, :, 1, :, 0]
 
 
 def check_subcells(nodes, side, cell_ids):

@@ -94,17 +94,22 @@ def cell_max_at_nodes(cell_nodes, values):
     """Per node, the largest of ``values`` over the nodes of the cells holding it
     (0 for nodes of no cell).  ``cell_nodes (nc, nn)``, ``values (n,)`` >= 0.
 
-    A sort and ``np.maximum.reduceat`` instead of ``np.maximum.at`` (several
-    times slower before NumPy 1.25).
+    The cell maxima are grouped by node through SciPy's CSR -> CSC conversion (a
+    counting sort in C) and reduced with ``np.maximum.reduceat``: several times
+    faster than ``np.maximum.at`` or an argsort.
     """
-    cmax = values[cell_nodes].max(axis=1)
-    idx = cell_nodes.ravel()
-    order = np.argsort(idx, kind="stable")
-    sidx = idx[order]
-    starts = np.flatnonzero(np.r_[True, sidx[1:] != sidx[:-1]]) if len(sidx) else np.zeros(0, int)
+    import scipy.sparse as sp
+
+    nc, nn = cell_nodes.shape
     out = np.zeros(len(values))
-    if len(starts):
-        out[sidx[starts]] = np.maximum.reduceat(np.repeat(cmax, cell_nodes.shape[1])[order], starts)
+    if nc == 0:
+        return out
+    cmax = values[cell_nodes].max(axis=1)
+    by_cell = sp.csr_matrix((np.repeat(cmax, nn), cell_nodes.ravel(), np.arange(0, nc * nn + 1, nn)),
+                            shape=(nc, len(values)))
+    by_node = by_cell.tocsc()
+    held = np.diff(by_node.indptr) > 0
+    out[held] = np.maximum.reduceat(by_node.data, by_node.indptr[:-1][held])
     return out
 
 
