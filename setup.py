@@ -13,5 +13,5 @@ setup(
     # petsc4py, mpi4py, numpy, scipy, meshio, h5py and matplotlib come from Debian
     # (see the Makefile); pip must not try to build them.
     install_requires=[],
-    entry_points={"console_scripts": ["xfemcontact = xfemcontact.cli:main"]},
+    entry_points={"console_scripts": ["xfemcontact = xfemcontact.cli:console"]},
 )

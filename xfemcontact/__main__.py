@@ -1,3 +1,3 @@
-from xfemcontact.cli import main
+from xfemcontact.cli import console
 
-raise SystemExit(main())
+console()
