@@ -49,6 +49,20 @@ def cell_samples(model, values):
                           {"SIXX": s[:, 0], "SIYY": s[:, 1], "SIXY": s[:, 2]})
 
 
+def test_samples(model, tests, u, values):
+    """The samples the ``tests`` look at: {"node"|"cell"|"interface": Samples}, only
+    the kinds they need (cell samples are every quadrature point of the mesh)."""
+    kinds = {t.kind for t in tests}
+    samples = {}
+    if "node" in kinds:
+        samples["node"] = node_samples(model, u)
+    if "cell" in kinds:
+        samples["cell"] = cell_samples(model, values)
+    if "interface" in kinds and hasattr(model, "interface_samples"):
+        samples.update(model.interface_samples())
+    return samples
+
+
 def run(case_path, outdir=None, overwrite=False):
     """Solve ``case_path``, write results into ``outdir``; return the exit code.
 
@@ -94,9 +108,8 @@ def run(case_path, outdir=None, overwrite=False):
             u = model.displacement()
             values = model.stresses()
             if converged:      # tests on a run that did not converge would mean nothing
-                samples = {"node": node_samples(model, u), "cell": cell_samples(model, values)}
-                samples.update(model.interface_samples() if hasattr(model, "interface_samples") else {})
-                outcomes = checks.evaluate(case.tests, samples, case.reference, comm)
+                outcomes = checks.evaluate(case.tests, test_samples(model, case.tests, u, values),
+                                           case.reference, comm)
         with timing.phase("output"):
             results.write_outputs(folder, model, u, values, converged, reason, outcomes,
                                   warnings=pre.warnings)

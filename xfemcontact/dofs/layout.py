@@ -148,7 +148,12 @@ class DofLayout:
         return np.zeros(self.local_size + 1)
 
     def counts(self):
-        """Number of free dofs of each kind over all processes."""
+        """Number of free dofs of each kind over all processes (collective the first time)."""
+        if getattr(self, "_counts", None) is None:
+            self._counts = self._count_free()
+        return dict(self._counts)
+
+    def _count_free(self):
         owned = self.mesh.node_owned
         free = ~self.fixed
         mpi = self.mesh.comm.tompi4py()
