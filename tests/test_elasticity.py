@@ -438,3 +438,30 @@ def test_affine_strains_equal_physical_gradients(cell):
     pts2 = integration.cell_points(el, curved, np.arange(6), np.ones(6))
     assert np.allclose(eps2, elasticity.strain(pts2.dNdx, ue), rtol=0, atol=1e-12)
     assert np.abs(eps2 - want).max() > 1e-3   # the curved cells really differ
+
+
+def quadrature_mean_strains(model):
+    """Area-weighted mean strain of every cell from the stresses at quadrature points."""
+    nc = len(model.mesh.cells)
+    area, eps = np.zeros(nc), np.zeros((nc, 3))
+    for v in model.stresses():
+        area += np.bincount(v.cells, v.w.sum(axis=1), minlength=nc)
+        we = np.einsum("kq,kqi->ik", v.w, v.strain)
+        for i in range(3):
+            eps[:, i] += np.bincount(v.cells, we[i], minlength=nc)
+    return eps / area[:, None]
+
+
+@pytest.mark.parametrize("mesh", ["structured", "distorted"])
+@pytest.mark.parametrize("cell", ["QUAD8", "TRIA6"])
+def test_cell_mean_strains_equal_quadrature_means(tmp_path, cell, mesh):
+    """The post mesh's cell strains (closed form on affine cells, quadrature on the others)
+    are the means of the strains at the quadrature points, on a quadratic field."""
+    from xfemcontact.post import fields
+    s0, sx, sy, body = quadratic_stress()
+    text = case_text(cell, dirichlet=[(SIDES, fmt(*P[:3], P[3:]), fmt(*Q[:3], Q[3:]))], body=body)
+    m = solve(tmp_path, text, MESHES_LINEAR[mesh](cell))
+    got = fields.cell_mean_strains(m.mesh, m.geo, m.layout, m.local_solution())
+    want = quadrature_mean_strains(m)
+    assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
+    assert np.ptp(want[:, 0]) > 1e-3 * np.abs(want).max()      # the cells really differ

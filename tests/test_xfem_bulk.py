@@ -373,3 +373,20 @@ def test_straight_interface_condition(cell, name):
     res = _get(cell, name)
     assert np.isfinite(res["cond_scaled"]) and res["cond_scaled"] < 1e14, f"{res['cond_scaled']:.2e}"
     assert np.isfinite(res["cond"])
+
+
+@pytest.mark.parametrize("name", ["ssnv509a", "ssnv509b"])
+def test_cell_mean_strains_of_enriched_cells(name):
+    """Cell means of the post mesh on SSNV509 (frictional contact): enriched cells
+    (Heaviside part, sub-cells of cut cells) as well as plain ones equal the means of the
+    strains at their quadrature points."""
+    from tests.conftest import CASES
+    from tests.test_elasticity import quadrature_mean_strains
+    from xfemcontact.post import fields
+    model = Model(load_case(CASES / f"{name}.toml"))
+    assert model.solve() > 0
+    got = fields.cell_mean_strains(model.mesh, model.geo, model.layout, model.local_solution())
+    want = quadrature_mean_strains(model)
+    enriched = model.geo.enriched_cells(model.mesh)
+    assert len(enriched) > 0 and np.abs(want[enriched]).max() > 1e-9
+    assert np.abs(got - want).max() <= 1e-10 * np.abs(want).max()

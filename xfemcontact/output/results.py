@@ -77,17 +77,15 @@ def interface_table(model):
     return {k: allv[k][order].tolist() for k in keys}
 
 
-def write_fields(folder, model, u, values):
+def write_fields(folder, model):
     """The post-processing mesh and its fields (see :mod:`xfemcontact.post.postmesh`) as
     fields.xdmf + fields.h5 (and fields.vtu, fields.med if asked).  Collective.
 
-    ``u`` is not used (the post mesh evaluates each side's displacement itself);
-    ``values``: stresses at quadrature points.  Returns the PostMesh and the file
-    names written on rank 0, (None, []) elsewhere.
+    Returns the PostMesh and the file names written on rank 0, (None, []) elsewhere.
     """
     from xfemcontact.post import postmesh
 
-    post = postmesh.build(model, values)
+    post = postmesh.build(model)
     if post is None:
         return None, []
     import meshio
@@ -106,14 +104,14 @@ def write_fields(folder, model, u, values):
     return post, written
 
 
-def write_outputs(folder, model, u, values, converged, reason, outcomes, warnings=()):
+def write_outputs(folder, model, converged, reason, outcomes, warnings=()):
     """Every result file but results.json: fields, interface.csv, plots, report.md.
     Collective; only rank 0 writes.  ``warnings``: more lines for report.md (the
     input checks' warnings)."""
     from xfemcontact.output import interface_csv, report
     from xfemcontact.post import plots
 
-    post, files = write_fields(folder, model, u, values)
+    post, files = write_fields(folder, model)
     table = interface_csv.build(model)
     summary_now = summary(model, converged, reason, outcomes)
     if model.comm.rank != 0:

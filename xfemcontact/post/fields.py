@@ -72,16 +72,33 @@ def _curved_points(el, xc, ue):
     return pts.x, pts.w, elasticity.strain(pts.dNdx, ue)
 
 
-def cell_means(mesh, values):
-    """Area-weighted mean stress and strain ``(nc, 3)`` of every local cell."""
-    nc = len(mesh.cells)
-    area = np.zeros(nc)
-    sig = np.zeros((nc, 3))
-    eps = np.zeros((nc, 3))
-    for v in values:
-        area += np.bincount(v.cells, v.w.sum(axis=1), minlength=nc)
-        ws, we = np.einsum("kq,kqi->ik", v.w, v.stress), np.einsum("kq,kqi->ik", v.w, v.strain)
-        for i in range(3):
-            sig[:, i] += np.bincount(v.cells, ws[i], minlength=nc)
-            eps[:, i] += np.bincount(v.cells, we[i], minlength=nc)
-    return sig / area[:, None], eps / area[:, None]
+def cell_mean_strains(mesh, geo, layout, x_local):
+    """Area-weighted mean strain ``(nc, 3)`` (Voigt, engineering shear) of every local cell.
+
+    Affine uncut cells in closed form (the mean of the reference gradients times
+    the cell's inverse Jacobian, one BLAS product per batch); other cells through
+    their quadrature points, as :func:`quadrature_stresses` evaluates them.  The
+    mean stress is ``eps @ D.T`` (linear elasticity).
+    """
+    el = mesh.element
+    eps = np.zeros((len(mesh.cells), 3))
+    plain = geo.plain_cells(mesh) if geo is not None else np.arange(len(mesh.cells))
+    q, wq = el.quadrature(4)
+    mean_dshape = np.einsum("q,qai->ai", wq, el.dshape(q))[None] / wq.sum()   # (1, nn, 2)
+    for s in range(0, len(plain), bulk.CHUNK):
+        cells = plain[s:s + bulk.CHUNK]
+        xc = mesh.x[mesh.cell_nodes[cells]]
+        ue = x_local[bulk.plain_batch(mesh, layout, cells).local]
+        aff = bulk.affine_mask(el, xc)
+        if aff.any():
+            _, M = elasticity.inverse_jacobians(el.jacobians(xc[aff], q[:1])[:, 0])
+            eps[cells[aff]] = elasticity.affine_strain(mean_dshape, M, ue[aff])[:, 0]
+        if (~aff).any():
+            _, w, e = _curved_points(el, xc[~aff], ue[~aff])
+            eps[cells[~aff]] = np.einsum("kq,kqi->ki", w, e) / w.sum(axis=1)[:, None]
+    if geo is not None:
+        for pts in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
+            G = np.concatenate([pts.dNdx, heaviside_weights(mesh, geo, pts)[..., None] * pts.dNdx], axis=2)
+            e = elasticity.strain(G, x_local[bulk.enriched_batch(mesh, layout, pts.cells).local])
+            eps[pts.cells] = np.einsum("kq,kqi->ki", pts.w, e) / pts.w.sum(axis=1)[:, None]
+    return eps

@@ -78,7 +78,7 @@ class PostMesh:
 
 
 # -- one process's cells ---------------------------------------------------------
-def _pieces(model, values, xl):
+def _pieces(model, xl):
     """The post cells of this process, as padded arrays.
 
     Returns a dict: ``cell (m,)`` input ids, ``sub (m,)`` sub-cell index (-1
@@ -92,7 +92,8 @@ def _pieces(model, values, xl):
     cut = geo.cell_side == 0 if geo is not None else np.zeros(nc, bool)
     uncut = np.nonzero(~cut)[0]
     side_u = geo.cell_side[uncut] if geo is not None else np.zeros(len(uncut), np.int64)
-    sig, eps = fields.cell_means(mesh, values)
+    eps = fields.cell_mean_strains(mesh, geo, layout, xl)
+    sig = eps @ model.D.T
     nodes = mesh.cell_nodes[uncut]
     parts = [dict(cell=mesh.cell_ids[uncut], sub=np.full(len(uncut), -1), nn=np.full(len(uncut), el.nn),
                   x=mesh.x[nodes], node=mesh.node_ids[nodes], u=nodal_displacement(model, xl, uncut, side_u),
@@ -201,13 +202,10 @@ def _semi_multiplier(law, lam, fric):
 
 
 # -- the whole mesh on rank 0 ----------------------------------------------------------
-def build(model, values):
-    """The PostMesh on rank 0, None elsewhere.  Collective.
-
-    ``values``: the stresses at quadrature points (``model.stresses()``).
-    """
+def build(model):
+    """The PostMesh on rank 0, None elsewhere.  Collective."""
     xl = model.local_solution()
-    payload = (_pieces(model, values, xl), interface_samples(model))
+    payload = (_pieces(model, xl), interface_samples(model))
     parts = model.comm.tompi4py().gather(payload, root=0)
     if parts is None:
         return None
