@@ -432,8 +432,8 @@ def test_affine_strains_equal_physical_gradients(cell):
     assert np.abs(x - pts.x).max() <= 1e-14 and np.abs(w - pts.w).max() <= 1e-14
     curved = cells.copy()
     curved[:, el.nv] += 0.05                  # a mid-edge node off its edge: not affine
-    from xfemcontact.assembly import bulk
-    assert not bulk.affine_mask(el, curved[:1]).any()
+    from xfemcontact.fem.elements import affine_cells
+    assert not affine_cells(el, curved[:1]).any()
     x2, w2, eps2 = fields._curved_points(el, curved, ue)
     pts2 = integration.cell_points(el, curved, np.arange(6), np.ones(6))
     assert np.allclose(eps2, elasticity.strain(pts2.dNdx, ue), rtol=0, atol=1e-12)

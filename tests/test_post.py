@@ -376,21 +376,3 @@ def test_two_processes_write_the_same_files(ssnv509a, tmp_path):
     assert list(ca) == list(cb)
     for k in ca:
         np.testing.assert_allclose(cb[k], ca[k], atol=1e-10, rtol=0, err_msg=k)
-
-
-@pytest.mark.parametrize("spread", [1.0, 1e-9])
-def test_near_preselection_keeps_every_close_point(spread):
-    """The grid pre-selection of post-mesh merging never drops a point that lies within
-    the tolerance of a sub-cell point, whether the sub-cell points are spread out or
-    packed closer than the tolerance, and it does drop far points."""
-    from scipy.spatial import cKDTree
-    from xfemcontact.post.postmesh import _near
-    rng = np.random.default_rng(5)
-    tol = 1e-6
-    xf = 3.0 + spread * rng.random((400, 2))
-    close = xf[rng.integers(0, 400, 300)] + (tol * 0.999) * rng.uniform(-0.7, 0.7, (300, 2))
-    xk = np.concatenate([close, 10.0 * rng.random((5000, 2)) - 2.0])
-    d, _ = cKDTree(xf).query(xk, distance_upper_bound=tol)
-    mask = _near(xf, xk, tol)
-    assert mask[np.isfinite(d)].all()
-    assert mask.sum() < 0.5 * len(xk)

@@ -15,10 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from xfemcontact.fem import elasticity
-from xfemcontact.fem.elements import physical_gradients
+from xfemcontact.fem.elements import affine_cells, physical_gradients
 
 CHUNK = 16384
-_AFFINE_TOL = 1e-10
 
 
 @dataclass
@@ -55,17 +54,6 @@ def enriched_batch(mesh, layout, cells):
     return Batch(cells, loc, glob)
 
 
-def affine_mask(el, x):
-    """Cells ``x (ne, nn, 2)`` whose isoparametric map is affine."""
-    e = el.edges
-    mid = 0.5 * (x[:, e[:, 0]] + x[:, e[:, 1]])
-    size = np.abs(x[:, 1] - x[:, 0]).max(axis=1) + np.abs(x[:, 2] - x[:, 0]).max(axis=1)
-    err = np.abs(mid - x[:, e[:, 2]]).max(axis=(1, 2))
-    if el.nv == 4:   # parallelogram: x0 + x2 == x1 + x3
-        err = np.maximum(err, np.abs(x[:, 0] + x[:, 2] - x[:, 1] - x[:, 3]).max(axis=1))
-    return err <= _AFFINE_TOL * size
-
-
 class PlainStiffness:
     """Stiffness of plain cells of one element type and material."""
 
@@ -77,10 +65,11 @@ class PlainStiffness:
         self.q_gen, self.wq_gen = el.quadrature(4)
         self.basis = elasticity.affine_basis(elasticity.reference_products(el.dshape(self.q), self.wq), self.C)
 
-    def __call__(self, x):
-        """Element matrices ``(ne, 2 nn, 2 nn)`` of cells ``x (ne, nn, 2)`` (read-only)."""
+    def __call__(self, x, aff=None):
+        """Element matrices ``(ne, 2 nn, 2 nn)`` of cells ``x (ne, nn, 2)`` (read-only);
+        ``aff``: which cells are affine (:func:`elements.affine_cells`) if known."""
         el = self.el
-        aff = affine_mask(el, x)
+        aff = affine_cells(el, x) if aff is None else aff
         if aff.all():               # no copy into a new array (may be a broadcast view)
             return elasticity.affine_stiffness(el.jacobians(x, el.ref_nodes[:1])[:, 0], self.basis)
         K = np.empty((len(x), 2 * el.nn, 2 * el.nn))
@@ -130,6 +119,7 @@ def assemble_plain(mesh, batch, stiffness, A, r_local, x_bc):
     nodes = mesh.cell_nodes
     for s in range(0, len(batch), CHUNK):
         rows = slice(s, min(s + CHUNK, len(batch)))
-        K = stiffness(x[nodes[batch.cells[rows]]])
+        cells = batch.cells[rows]
+        K = stiffness(x[nodes[cells]], mesh.affine[cells])
         add_matrices(A, batch, K, rows)
         add_lift(r_local, batch, K, x_bc, rows)

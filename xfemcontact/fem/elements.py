@@ -173,6 +173,26 @@ def element(name):
     return {"QUAD8": Quad8, "TRIA6": Tria6}[name]()
 
 
+#: a cell is affine when its mid-edge nodes and (quadrilaterals) its fourth vertex are
+#: where an affine map puts them, to this fraction of its size
+AFFINE_TOL = 1e-10
+
+
+def affine_cells(el, x):
+    """Which cells ``x (ne, nn, 2)`` have an affine isoparametric map: ``(ne,)`` bool.
+
+    Straight-sided triangles and parallelograms with mid-edge nodes at the midpoints:
+    their Jacobian is constant, so kernels can use one per cell.
+    """
+    e = el.edges
+    mid = 0.5 * (x[:, e[:, 0]] + x[:, e[:, 1]])
+    size = np.abs(x[:, 1] - x[:, 0]).max(axis=1) + np.abs(x[:, 2] - x[:, 0]).max(axis=1)
+    err = np.abs(mid - x[:, e[:, 2]]).max(axis=(1, 2))
+    if el.nv == 4:   # parallelogram: x0 + x2 == x1 + x3
+        err = np.maximum(err, np.abs(x[:, 0] + x[:, 2] - x[:, 1] - x[:, 3]).max(axis=1))
+    return err <= AFFINE_TOL * size
+
+
 def physical_gradients(dshape_ref, J):
     """Gradients ``dN/dx (..., nn, 2)`` from reference ones and Jacobians ``(..., 2, 2)``.
 

@@ -15,12 +15,13 @@ Partitioning: METIS (pymetis, cut cells weighted, see
 ``-petscpartitioner_type ptscotch|simple``.
 """
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from xfemcontact._petsc import PETSc
 from xfemcontact.errors import MeshError
-from xfemcontact.fem.elements import element
+from xfemcontact.fem.elements import affine_cells, element
 
 #: labels PETSc creates itself; never confused with mesh groups
 _INTERNAL_LABELS = {"depth", "celltype", "boundary"}
@@ -313,6 +314,14 @@ class LocalMesh:
     def cell_coordinates(self):
         """``(nc, nn, 2)`` node coordinates of every local cell."""
         return self.x[self.cell_nodes]
+
+    @cached_property
+    def affine(self):
+        """``(nc,)`` bool: cells with an affine map (:func:`elements.affine_cells`)."""
+        el, n = self.element, len(self.cells)
+        step = 65536            # bounded temporaries
+        return np.concatenate([affine_cells(el, self.x[self.cell_nodes[s:s + step]])
+                               for s in range(0, n, step)]) if n else np.zeros(0, bool)
 
     # -- groups -------------------------------------------------------------
     def group_names(self):

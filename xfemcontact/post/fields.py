@@ -42,7 +42,7 @@ def quadrature_stresses(mesh, geo, layout, D, x_local):
         cells = plain[s:s + bulk.CHUNK]
         xc = mesh.x[mesh.cell_nodes[cells]]
         ue = x_local[bulk.plain_batch(mesh, layout, cells).local]
-        aff = bulk.affine_mask(el, xc)
+        aff = mesh.affine[cells]
         for rows, kernel in ((np.nonzero(aff)[0], _affine_points), (np.nonzero(~aff)[0], _curved_points)):
             if len(rows):
                 x, w, eps = kernel(el, xc[rows], ue[rows])
@@ -89,7 +89,7 @@ def cell_mean_strains(mesh, geo, layout, x_local):
         cells = plain[s:s + bulk.CHUNK]
         xc = mesh.x[mesh.cell_nodes[cells]]
         ue = x_local[bulk.plain_batch(mesh, layout, cells).local]
-        aff = bulk.affine_mask(el, xc)
+        aff = mesh.affine[cells]
         if aff.any():
             _, M = elasticity.inverse_jacobians(el.jacobians(xc[aff], q[:1])[:, 0])
             eps[cells[aff]] = elasticity.affine_strain(mean_dshape, M, ue[aff])[:, 0]

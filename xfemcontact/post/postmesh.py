@@ -205,7 +205,7 @@ def _semi_multiplier(law, lam, fric):
 def build(model):
     """The PostMesh on rank 0, None elsewhere.  Collective."""
     xl = model.local_solution()
-    payload = (_pieces(model, xl), interface_samples(model))
+    payload = (_pieces(model, xl), interface_samples(model), _cut_cell_nodes(model))
     parts = model.comm.tompi4py().gather(payload, root=0)
     if parts is None:
         return None
@@ -213,11 +213,22 @@ def build(model):
     samples = None
     if parts[0][1] is not None:
         samples = {k: np.concatenate([p[1][k] for p in parts]) for k in parts[0][1]}
-    return assemble(pieces, samples, model.mesh.cell_type)
+    near = np.unique(np.concatenate([p[2] for p in parts]))
+    return assemble(pieces, samples, model.mesh.cell_type, near)
 
 
-def assemble(pieces, samples, cell_type):
-    """Number cells and points of the gathered ``pieces`` (see :func:`_pieces`)."""
+def _cut_cell_nodes(model):
+    """Input ids of the nodes of this process's cut cells: the only input nodes that
+    sub-cell nodes can coincide with."""
+    geo, mesh = model.geo, model.mesh
+    if geo is None:
+        return np.zeros(0, np.int64)
+    return np.unique(mesh.node_ids[mesh.cell_nodes[geo.cell_side == 0]])
+
+
+def assemble(pieces, samples, cell_type, near=None):
+    """Number cells and points of the gathered ``pieces`` (see :func:`_pieces`);
+    ``near``: input node ids that sub-cell nodes may coincide with (all if None)."""
     tri = element("TRIA6")
     parent = element(cell_type)
     block = (pieces["nn"] == 6).astype(int) if cell_type == "QUAD8" else np.zeros(len(pieces["nn"]), int)
@@ -228,7 +239,7 @@ def assemble(pieces, samples, cell_type):
     slot = np.arange(8)[None, :] < nn[:, None]                                # (m, 8) live node slots
     xs = p["x"][slot]                                                         # (S, 2) in cell order
     side_s = np.repeat(p["side"], nn)
-    loc = slot_locations(xs, p["node"][slot])
+    loc = slot_locations(xs, p["node"][slot], near)
     # a point per (location, side); the interface is where a location has two sides
     key = loc * 3 + (side_s + 1)
     uniq, first, slot_point = np.unique(key, return_index=True, return_inverse=True)
@@ -267,12 +278,13 @@ def assemble(pieces, samples, cell_type):
     return PostMesh(points, blocks, pd, cd)
 
 
-def slot_locations(xs, node):
+def slot_locations(xs, node, near=None):
     """Location label ``(S,)`` of every cell slot, numbered by first appearance.
 
     Slots with an input node id (``node >= 0``) are that node; the others (sub-cell
     nodes) are merged by position (:func:`merge_points`) among themselves and
-    with the nodes of the input mesh that they touch.
+    with the nodes of the input mesh that they touch (among the ids ``near``, if
+    given: the nodes of the cut cells).
     """
     from scipy.spatial import cKDTree
 
@@ -281,7 +293,10 @@ def slot_locations(xs, node):
     if len(free):
         diag = _diagonal(xs)
         known = np.nonzero(key >= 0)[0]
-        known = known[_near(xs[free], xs[known], MERGE_TOL * diag)]          # cheap pre-selection
+        if near is not None and len(known):
+            candidate = np.zeros(max(int(key.max()), int(near.max(initial=0))) + 1, bool)
+            candidate[near] = True
+            known = known[candidate[key[known]]]
         known = known[np.unique(key[known], return_index=True)[1]]          # one slot per input node
         d, _ = cKDTree(xs[free]).query(xs[known], distance_upper_bound=MERGE_TOL * diag)
         known = known[np.isfinite(d)]                                        # input nodes that sub-cells touch
@@ -295,27 +310,6 @@ def slot_locations(xs, node):
     rank = np.empty(len(first), np.int64)
     rank[np.argsort(first, kind="stable")] = np.arange(len(first))
     return rank[inv]
-
-
-def _near(xf, xk, tol):
-    """Mask of the points ``xk (K, 2)`` that may lie within ``tol`` of one of ``xf (F, 2)``:
-    those in a bin of a grid about as fine as ``xf`` is numerous (or a neighbouring
-    bin) that holds a point of ``xf``.  A superset, to be refined by an exact query."""
-    lo = np.array([xf[:, 0].min(), xf[:, 1].min()]) - 2 * tol
-    span = np.array([np.ptp(xf[:, 0]), np.ptp(xf[:, 1])]) + 4 * tol
-    nb = np.clip((span / max(span.max(), 1e-300) * np.sqrt(len(xf))).astype(np.int64) + 1, 1, 4096)
-    size = np.maximum(span / nb, tol)                              # a point within tol: next bin at most
-    occupied = np.zeros(tuple(nb + 2), bool)                       # one bin of margin on each side
-    bf = np.clip(((xf - lo) / size).astype(np.int64), 0, nb - 1) + 1
-    for dx in (-1, 0, 1):                                          # bins next to a free point
-        for dy in (-1, 0, 1):
-            occupied[bf[:, 0] + dx, bf[:, 1] + dy] = True
-    g = np.floor((xk - lo) / size)
-    inside = (g[:, 0] >= -1) & (g[:, 0] <= nb[0]) & (g[:, 1] >= -1) & (g[:, 1] <= nb[1])
-    out = np.zeros(len(xk), bool)
-    gi = g[inside].astype(np.int64) + 1
-    out[inside] = occupied[gi[:, 0], gi[:, 1]]
-    return out
 
 
 def _diagonal(xs):
