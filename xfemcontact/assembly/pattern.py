@@ -116,8 +116,8 @@ def _point_counts(space, blocks, upper=False):
         A = sp.csr_matrix((A.data, A.indices, A.indptr), shape=A.shape)
     A.data[:] = 1                                  # adjacency, not multiplicity
     if upper:
-        rows = np.repeat(np.arange(npts), np.diff(A.indptr))
-        A.data[space.first[A.indices] <= space.first[rows]] = 0
+        row_first = np.repeat(space.first, np.diff(A.indptr))    # first dof of each entry's row
+        A.data[space.first[A.indices] <= row_first] = 0
         A.eliminate_zeros()
     total = A @ space.nfree
     owners = np.unique(space.owner)
