@@ -102,8 +102,9 @@ def _raise_shared(outcome, comm):
 def _preflight(case, raw):
     result = Preflight()
     case.check_groups(raw.group_names())
-    used = np.unique(raw.cells)
+    used = np.flatnonzero(np.bincount(raw.cells.ravel(), minlength=len(raw.points)))  # sorted
     x = raw.points
+    interior = _interior_edges(raw.cells, raw.n_vertices_per_cell)
     for bc in case.dirichlet:
         nodes = _group_nodes(raw, bc.groups)
         for name, formula in bc.components.items():
@@ -132,11 +133,11 @@ def _preflight(case, raw):
             phi = None
         else:
             problem = levelset_without_sign_change(raw.cells, raw.n_vertices_per_cell, phi, x,
-                                                   source=case.source, key=key)
+                                                   source=case.source, key=key, interior=interior)
             if problem:
                 raise GeometryError(problem)
     law = itf.law if itf is not None and phi is not None else None
-    problem = rigid_body_modes(case, raw, phi, law)
+    problem = rigid_body_modes(case, raw, phi, law, interior=interior)
     if problem:
         raise CaseError(problem)
     return result
@@ -203,7 +204,8 @@ def levelset_meets_domain(phi, x=None, comm=None, source="<case>", key="interfac
             f"solving without interface")
 
 
-def levelset_without_sign_change(cells, nv, phi, x, source="<case>", key="interface.level_set"):
+def levelset_without_sign_change(cells, nv, phi, x, source="<case>", key="interface.level_set",
+                                 interior=None):
     """An error message when LN is 0 where it does not separate two sides, else None.
 
     ``cells`` ``(nc, nn)`` node indices (vertices first, then the mid-edge node of
@@ -213,6 +215,7 @@ def levelset_without_sign_change(cells, nv, phi, x, source="<case>", key="interf
     nodes are 0 while the two cells on it are on the same side -- a normal
     level set alone cannot describe an interface that ends inside the domain
     (a crack): its zero line would have to stop changing sign somewhere.
+    ``interior``: :func:`_interior_edges` of ``cells`` if already known.
     """
     pc = phi[cells]
     pos, neg = (pc > 0).any(axis=1), (pc < 0).any(axis=1)
@@ -224,7 +227,7 @@ def levelset_without_sign_change(cells, nv, phi, x, source="<case>", key="interf
         return (prefix + f"LN = 0 at every node of cell {c} near ({ctr[0]:.6g}, {ctr[1]:.6g}): "
                          f"the interface must be a curve with LN < 0 on one side and LN > 0 on "
                          f"the other")
-    c1, c2, enodes = _interior_edges(cells, nv)
+    c1, c2, enodes = _interior_edges(cells, nv) if interior is None else interior
     if len(c1) == 0:
         return None
     side = np.where(pos & neg, 0, np.where(pos, 1, -1))
@@ -262,7 +265,7 @@ def _interior_edges(cells, nv):
 
 # --- rigid-body modes ---------------------------------------------------------------------
 
-def rigid_body_modes(case, raw, phi=None, law=None):
+def rigid_body_modes(case, raw, phi=None, law=None, interior=None):
     """A one-line error message when a rigid-body motion is left free, else None.
 
     Bodies: the connected parts of the mesh (cells sharing an edge); with an
@@ -277,7 +280,8 @@ def rigid_body_modes(case, raw, phi=None, law=None):
     both sides (their Heaviside dofs are imposed too, see
     :mod:`xfemcontact.dofs.constraints`).  A body is held when DX is imposed
     somewhere, DY somewhere, and the rotation is blocked: DX at two different
-    y or DY at two different x.
+    y or DY at two different x.  ``interior``: :func:`_interior_edges` of the
+    cells if already known.
     """
     cells, nv, x = raw.cells, raw.n_vertices_per_cell, raw.points
     nc = len(cells)
@@ -290,7 +294,7 @@ def rigid_body_modes(case, raw, phi=None, law=None):
         has = np.zeros((nc, 2), bool)
         has[:, 1] = True
     piece = np.arange(2 * nc).reshape(nc, 2)          # piece (cell, side): 2 c + (side > 0)
-    c1, c2, enodes = _interior_edges(cells, nv)
+    c1, c2, enodes = _interior_edges(cells, nv) if interior is None else interior
     links = []
     for s in (0, 1):
         ok = has[c1, s] & has[c2, s]
