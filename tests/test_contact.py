@@ -1,6 +1,4 @@
 """Frictional contact on the interface (issue 4): SSNV509 a and b, beyond stick, stability."""
-import dataclasses
-import math
 
 import numpy as np
 import pytest

@@ -7,8 +7,6 @@ straight-sided mesh, a quadratic one by TRIA6 on straight-sided triangles and by
 QUAD8 on parallelograms (serendipity contains P2, the map is affine), with the
 constant body force and the linear tractions integrated exactly.
 """
-import copy
-
 import numpy as np
 import pytest
 

@@ -1,5 +1,4 @@
 """Mesh reading (MED, Gmsh, XDMF, VTU), the rectangle generator and uniform refinement."""
-from pathlib import Path
 
 import meshio
 import numpy as np

@@ -13,7 +13,6 @@ import scipy.sparse as sp
 
 from tests.conftest import MESHES, write_case
 from xfemcontact.case import load_case
-from xfemcontact.errors import GeometryError
 from xfemcontact.model import Model
 from xfemcontact.xfem import geometry, integration
 from xfemcontact.xfem.levelset import FIT_TO_VERTEX

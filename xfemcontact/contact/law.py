@@ -60,7 +60,6 @@ def point_terms(law, chi, s, g, ut, lam, Lam):
     """
     rho, rho_t, mu = law.coef_cont, law.coef_frot, law.mu
     on = chi.astype(bool)
-    z = np.zeros_like(g)
     t = {
         "rg": np.where(on, lam + rho * g, 0.0),
         "rl": np.where(on, g, -lam / rho),

@@ -46,7 +46,6 @@ class InterfaceOperator:
         uniq = np.unique(g[g >= 0]).astype(PETSc.IntType)
         self.uniq = uniq
         self.pos = np.where(g >= 0, np.searchsorted(uniq, np.maximum(g, 0)), -1)
-        comm = self.mesh.comm
         self.xg = self.layout.create_global_vec()
         self.seq = PETSc.Vec().createSeq(len(uniq), comm=PETSc.COMM_SELF)
         iset = PETSc.IS().createGeneral(uniq, comm=PETSc.COMM_SELF)

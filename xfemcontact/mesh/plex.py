@@ -372,7 +372,6 @@ class LocalMesh:
 
     def edge_nodes(self, edges):
         """``(k, 3)`` local nodes (a, b, mid) of edge points ``edges``."""
-        vs = self.dm.getDepthStratum(0)[0]
         cone = np.array([self.dm.getCone(e) for e in edges], dtype=np.int64).reshape(-1, 2)
         return np.c_[self.node_of_point[cone], self.node_of_point[edges]]
 
@@ -396,7 +395,6 @@ class LocalMesh:
 
     def _edge_cells(self, edges):
         """A local cell holding each edge and the edge's index in it (-1 if none)."""
-        cs = self.dm.getHeightStratum(0)[0]
         cell = np.full(len(edges), -1, dtype=np.int64)
         local = np.zeros(len(edges), dtype=np.int64)
         for k, e in enumerate(edges):

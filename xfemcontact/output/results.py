@@ -2,7 +2,6 @@
 import numpy as np
 
 from xfemcontact import __version__, timing
-from xfemcontact.post import fields, gather
 
 MESHIO_CELL = {"QUAD8": "quad8", "TRIA6": "triangle6"}
 
