@@ -85,11 +85,10 @@ class PlainStiffness:
         return K
 
 
-def enriched_stiffness(G_std, psi, w, C):
-    """Stiffness ``(ne, 4 nn, 4 nn)`` from gradients ``G_std (ne, nq, nn, 2)``,
-    Heaviside weights ``psi (ne, nq, nn)`` and weights ``w (ne, nq)``."""
-    G = np.concatenate([G_std, psi[..., None] * G_std], axis=2)
-    return elasticity.stiffness(G, w, C)
+def enriched_gradients(G_std, psi):
+    """Gradients ``(ne, nq, 2 nn, 2)`` of (N_a, psi_a N_a) from those of N_a,
+    ``G_std (ne, nq, nn, 2)``, and Heaviside weights ``psi (ne, nq, nn)``."""
+    return np.concatenate([G_std, psi[..., None] * G_std], axis=2)
 
 
 def add_matrices(A, batch, K, rows=slice(None)):

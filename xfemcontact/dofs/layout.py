@@ -51,6 +51,7 @@ class DofLayout:
         self.enriched = np.asarray(enriched, bool)
         self.multiplier = np.asarray(multiplier, bool)
         self.fixed = np.asarray(fixed, bool) & np.c_[np.ones((n, 2), bool), self.enriched, self.enriched]
+        self._counts = None        # free dofs by kind, summed over processes on first use
         self.section = self._build_section()
         dm = mesh.dm
         dm.setSection(self.section)
@@ -149,7 +150,7 @@ class DofLayout:
 
     def counts(self):
         """Number of free dofs of each kind over all processes (collective the first time)."""
-        if getattr(self, "_counts", None) is None:
+        if self._counts is None:
             self._counts = self._count_free()
         return dict(self._counts)
 

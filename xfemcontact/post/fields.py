@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from xfemcontact.assembly import bulk
-from xfemcontact.assembly.system import heaviside_weights
+from xfemcontact.assembly.system import enriched_gradients
 from xfemcontact.fem import elasticity
 from xfemcontact.xfem import geometry as xgeo
 from xfemcontact.xfem import integration
@@ -37,23 +37,61 @@ def quadrature_stresses(mesh, geo, layout, D, x_local):
     """Stresses at the quadrature points of every local cell, as a list of PointValues."""
     el = mesh.element
     out = []
-    plain = geo.plain_cells(mesh) if geo is not None else np.arange(len(mesh.cells))
-    for s in range(0, len(plain), bulk.CHUNK):
-        cells = plain[s:s + bulk.CHUNK]
-        xc = mesh.x[mesh.cell_nodes[cells]]
-        ue = x_local[bulk.plain_batch(mesh, layout, cells).local]
-        aff = mesh.affine[cells]
+    for cells, xc, ue, aff in _plain_chunks(mesh, geo, layout, x_local):
         for rows, kernel in ((np.nonzero(aff)[0], _affine_points), (np.nonzero(~aff)[0], _curved_points)):
             if len(rows):
                 x, w, eps = kernel(el, xc[rows], ue[rows])
                 out.append(PointValues(cells[rows], x, w, np.ones(w.shape), eps @ D.T, eps))
-    if geo is not None:
-        for pts in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
-            G = np.concatenate([pts.dNdx, heaviside_weights(mesh, geo, pts)[..., None] * pts.dNdx], axis=2)
-            ue = x_local[bulk.enriched_batch(mesh, layout, pts.cells).local]
-            eps = elasticity.strain(G, ue)
-            out.append(PointValues(pts.cells, pts.x, pts.w, pts.side, eps @ D.T, eps))
+    for pts, eps in _enriched_strains(mesh, geo, layout, x_local):
+        out.append(PointValues(pts.cells, pts.x, pts.w, pts.side, eps @ D.T, eps))
     return out
+
+
+def cell_mean_strains(mesh, geo, layout, x_local):
+    """Area-weighted mean strain ``(nc, 3)`` (Voigt, engineering shear) of every local cell.
+
+    Affine uncut cells in closed form (the mean of the reference gradients times
+    the cell's inverse Jacobian, one BLAS product per batch); other cells through
+    their quadrature points, as :func:`quadrature_stresses` evaluates them.  The
+    mean stress is ``eps @ D.T`` (linear elasticity).
+    """
+    el = mesh.element
+    eps = np.zeros((len(mesh.cells), 3))
+    q, wq = el.quadrature(4)
+    mean_dshape = np.einsum("q,qai->ai", wq, el.dshape(q))[None] / wq.sum()   # (1, nn, 2)
+    for cells, xc, ue, aff in _plain_chunks(mesh, geo, layout, x_local):
+        if aff.any():
+            _, M = elasticity.inverse_jacobians(el.jacobians(xc[aff], q[:1])[:, 0])
+            eps[cells[aff]] = elasticity.affine_strain(mean_dshape, M, ue[aff])[:, 0]
+        if (~aff).any():
+            _, w, e = _curved_points(el, xc[~aff], ue[~aff])
+            eps[cells[~aff]] = _weighted_mean(w, e)
+    for pts, e in _enriched_strains(mesh, geo, layout, x_local):
+        eps[pts.cells] = _weighted_mean(pts.w, e)
+    return eps
+
+
+def _plain_chunks(mesh, geo, layout, x_local):
+    """Uncut, unenriched cells by batches: ``(cells, xc (k, nn, 2), ue (k, 2 nn), affine (k,))``."""
+    plain = geo.plain_cells(mesh) if geo is not None else np.arange(len(mesh.cells))
+    for s in range(0, len(plain), bulk.CHUNK):
+        cells = plain[s:s + bulk.CHUNK]
+        ue = x_local[bulk.plain_batch(mesh, layout, cells).local]
+        yield cells, mesh.x[mesh.cell_nodes[cells]], ue, mesh.affine[cells]
+
+
+def _enriched_strains(mesh, geo, layout, x_local):
+    """Enriched cells by batches: ``(CellPoints, strains (k, nq, 3))``, Heaviside part included."""
+    if geo is None:
+        return
+    for pts in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
+        ue = x_local[bulk.enriched_batch(mesh, layout, pts.cells).local]
+        yield pts, elasticity.strain(enriched_gradients(mesh, geo, pts), ue)
+
+
+def _weighted_mean(w, e):
+    """Per cell, the mean of ``e (k, nq, 3)`` with weights ``w (k, nq)``."""
+    return np.einsum("kq,kqi->ki", w, e) / w.sum(axis=1)[:, None]
 
 
 def _affine_points(el, xc, ue):
@@ -70,35 +108,3 @@ def _curved_points(el, xc, ue):
     """As :func:`_affine_points` for cells with a Jacobian that varies."""
     pts = integration.cell_points(el, xc, np.arange(len(xc)), np.ones(len(xc)))
     return pts.x, pts.w, elasticity.strain(pts.dNdx, ue)
-
-
-def cell_mean_strains(mesh, geo, layout, x_local):
-    """Area-weighted mean strain ``(nc, 3)`` (Voigt, engineering shear) of every local cell.
-
-    Affine uncut cells in closed form (the mean of the reference gradients times
-    the cell's inverse Jacobian, one BLAS product per batch); other cells through
-    their quadrature points, as :func:`quadrature_stresses` evaluates them.  The
-    mean stress is ``eps @ D.T`` (linear elasticity).
-    """
-    el = mesh.element
-    eps = np.zeros((len(mesh.cells), 3))
-    plain = geo.plain_cells(mesh) if geo is not None else np.arange(len(mesh.cells))
-    q, wq = el.quadrature(4)
-    mean_dshape = np.einsum("q,qai->ai", wq, el.dshape(q))[None] / wq.sum()   # (1, nn, 2)
-    for s in range(0, len(plain), bulk.CHUNK):
-        cells = plain[s:s + bulk.CHUNK]
-        xc = mesh.x[mesh.cell_nodes[cells]]
-        ue = x_local[bulk.plain_batch(mesh, layout, cells).local]
-        aff = mesh.affine[cells]
-        if aff.any():
-            _, M = elasticity.inverse_jacobians(el.jacobians(xc[aff], q[:1])[:, 0])
-            eps[cells[aff]] = elasticity.affine_strain(mean_dshape, M, ue[aff])[:, 0]
-        if (~aff).any():
-            _, w, e = _curved_points(el, xc[~aff], ue[~aff])
-            eps[cells[~aff]] = np.einsum("kq,kqi->ki", w, e) / w.sum(axis=1)[:, None]
-    if geo is not None:
-        for pts in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
-            G = np.concatenate([pts.dNdx, heaviside_weights(mesh, geo, pts)[..., None] * pts.dNdx], axis=2)
-            e = elasticity.strain(G, x_local[bulk.enriched_batch(mesh, layout, pts.cells).local])
-            eps[pts.cells] = np.einsum("kq,kqi->ki", pts.w, e) / pts.w.sum(axis=1)[:, None]
-    return eps

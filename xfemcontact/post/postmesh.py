@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from xfemcontact.assembly import bulk
-from xfemcontact.assembly.system import heaviside_weights
+from xfemcontact.assembly.system import enriched_gradients
 from xfemcontact.fem import elasticity
 from xfemcontact.fem.elements import Seg3, element
 from xfemcontact.post import fields
@@ -123,9 +123,8 @@ def _subcell_pieces(model, xl):
     xc = mesh.x[mesh.cell_nodes[cells]]
     x = np.einsum("mpa,mai->mpi", el.shape(xi), xc)
     pts, = xgeo.cell_points(mesh, geo, sub.cells)                            # cut cells only: one batch
-    G = np.concatenate([pts.dNdx, heaviside_weights(mesh, geo, pts)[..., None] * pts.dNdx], axis=2)
     ue = xl[bulk.enriched_batch(mesh, layout, pts.cells).local]
-    e = elasticity.strain(G, ue)                                              # (k, ns nq, 3)
+    e = elasticity.strain(enriched_gradients(mesh, geo, pts), ue)             # (k, ns nq, 3)
     w = pts.w.reshape(k, ns, -1)                                              # sub-cell major
     area = np.maximum(w.sum(axis=2), 1e-300)[..., None]
     eps = np.einsum("ksq,ksqi->ksi", w, e.reshape(k, ns, -1, 3)) / area       # (k, ns, 3)
