@@ -463,3 +463,22 @@ def test_cell_mean_strains_equal_quadrature_means(tmp_path, cell, mesh):
     want = quadrature_mean_strains(m)
     assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
     assert np.ptp(want[:, 0]) > 1e-3 * np.abs(want).max()      # the cells really differ
+
+
+@pytest.mark.parametrize("cell", ["QUAD8", "TRIA6"])
+def test_linear_reference_inverts_the_companion_map(cell):
+    """``linear_reference`` maps physical points back to reference coordinates, inside
+    and outside distorted cells (the weak-vertex extrapolation evaluates a root cell's
+    P1 / Q1 functions at a vertex of a neighbouring cell)."""
+    from xfemcontact.fem.elements import Quad8, Tria6
+
+    el = Quad8() if cell == "QUAD8" else Tria6()
+    rng = np.random.default_rng(7)
+    k = 50
+    xv = el.ref_nodes[: el.nv][None] * 0.5 + rng.uniform(-0.08, 0.08, (k, el.nv, 2))
+    xv = xv @ np.array([[np.cos(0.4), np.sin(0.4)], [-np.sin(0.4), np.cos(0.4)]]) + [3.0, -2.0]
+    xi = rng.uniform(-2.0, 2.0, (k, 2)) if cell == "QUAD8" else rng.uniform(-1.0, 2.0, (k, 2))
+    x = np.einsum("ka,kai->ki", el.shape_linear(xi), xv)
+    back = el.linear_reference(xv, x)
+    assert np.allclose(np.einsum("ka,kai->ki", el.shape_linear(back), xv), x, atol=1e-12)
+    assert np.allclose(back, xi, atol=1e-9)

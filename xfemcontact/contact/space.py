@@ -23,10 +23,10 @@ partition:
 1. *Aggregation of weak vertices.*  The weight of a vertex is the largest value
    of its linear function at the interface points (intersection and Gauss
    points) of its cut cells.  Vertices with weight below ``WEAK`` carry no
-   multiplier: their value is the linear extrapolation of the field of the
-   nearest *root* cell (a cut cell whose vertices all carry multipliers), the
-   affine function fitted to the root's vertex values evaluated at the weak
-   vertex.  The multiplier stays continuous, linear fields stay exact, and no
+   multiplier: their value is the extrapolation of the field of the nearest
+   *root* cell (a cut cell whose vertices all carry multipliers): the root's
+   P1 / Q1 field evaluated at the weak vertex.  The multiplier stays
+   continuous, linear fields stay exact, and no
    free dof is left with a vanishing trace.  (code_aster's "locally inactive"
    vertices redistribute weights equally inside each cell instead: exact for
    constants only, discontinuous.)
@@ -102,13 +102,6 @@ def topology(mesh, segments):
     return SegmentTopology(cut_edges, r, verts, mesh.x[vnodes])
 
 
-def affine_extrapolation(xr, x):
-    """Weights ``(m,)`` giving the affine fit through the values at points
-    ``xr (m, 2)`` (m >= 3, least squares for m > 3) evaluated at ``x (2,)``."""
-    A = np.c_[np.ones(len(xr)), xr - xr.mean(axis=0)]
-    return np.r_[1.0, x - xr.mean(axis=0)] @ np.linalg.pinv(A)
-
-
 @dataclass
 class MultiplierSpace:
     ids: np.ndarray            # sorted global ids of every carrying vertex (all processes)
@@ -167,7 +160,7 @@ def build(mesh, segments, algo="AUTO", lin_at_points=None, weights=None):
     np.maximum.at(weight, np.searchsorted(ids, cverts.ravel()), cw.ravel())
     strong = weight >= WEAK[el.name] if algo != "NON" else np.ones(len(ids), bool)
     carriers = ids[strong]
-    ext = _aggregation(ids, xv, strong, cverts, cx)          # weak id -> (root ids, weights)
+    ext = _aggregation(el, ids, xv, strong, cverts, cx)          # weak id -> (root ids, weights)
     carriers_of, T = _cell_maps(topo, nv, strong, ids, ext)
     space = MultiplierSpace(carriers, carriers.copy(), topo, carriers_of, T, algo=algo,
                             n_weak=int((~strong).sum()))
@@ -234,19 +227,26 @@ def _substitute(roots, wts, tied):
     return np.array(rr), np.array(ww)
 
 
-def _aggregation(ids, xv, strong, cverts, cx):
-    """For every weak vertex: the vertices of its root cell and extrapolation weights."""
+def _aggregation(el, ids, xv, strong, cverts, cx):
+    """For every weak vertex: the vertices of its root cell and extrapolation weights.
+
+    The weights are the root cell's own linear companion functions (P1 / Q1)
+    evaluated at the weak vertex: the weak vertex continues the root's multiplier
+    field, its bilinear part included.  (An affine fit of a quadrangle's four
+    values drops that part: on SSNV509 a the L2-best LAGS_F1 at the arc ends was
+    6 times less accurate with it.)
+    """
     full = np.all(strong[np.searchsorted(ids, cverts)], axis=1)
-    ext = {}
-    if not full.any():
-        return ext
+    weak = np.nonzero(~strong)[0]
+    if not full.any() or not len(weak):
+        return {}
     roots = np.nonzero(full)[0]
     centre = cx[roots].mean(axis=1)
-    for i in np.nonzero(~strong)[0]:
-        d = np.linalg.norm(centre - xv[i], axis=1)
-        j = roots[np.lexsort((cverts[roots].min(axis=1), d))[0]]
-        ext[ids[i]] = (cverts[j], affine_extrapolation(cx[j], xv[i]))
-    return ext
+    d = np.linalg.norm(centre[None, :, :] - xv[weak, None, :], axis=2)       # (w, r)
+    key = np.broadcast_to(cverts[roots].min(axis=1), d.shape)
+    nearest = roots[np.lexsort((key, d), axis=1)[:, 0]]
+    wts = el.shape_linear(el.linear_reference(cx[nearest], xv[weak]))          # (w, nv)
+    return {ids[i]: (cverts[j], w) for i, j, w in zip(weak, nearest, wts)}
 
 
 def _cell_maps(topo, nv, strong, ids, ext):

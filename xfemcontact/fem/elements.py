@@ -48,6 +48,23 @@ class Element:
         J = self.jacobians(x, xi)
         return J[..., 0, 0] * J[..., 1, 1] - J[..., 0, 1] * J[..., 1, 0]
 
+    def linear_reference(self, xv, x, iters=30, tol=1e-13):
+        """Reference coordinates ``(k, 2)`` of points ``x (k, 2)`` (m) under the linear
+        companion maps (TRIA3 / QUAD4) of cells with vertices ``xv (k, nv, 2)``.
+
+        Newton on ``sum_a L_a(xi) xv_a = x``: one step for triangles, a few for
+        quadrangles.  Points may lie outside the cell (extrapolation).
+        """
+        xi = np.zeros(x.shape)
+        for _ in range(iters):
+            r = np.einsum("ka,kai->ki", self.shape_linear(xi), xv) - x
+            J = np.einsum("kai,kaj->kij", xv, self.dshape_linear(xi))
+            step = np.linalg.solve(J, r[..., None])[..., 0]
+            xi -= step
+            if np.abs(step).max(initial=0.0) < tol:
+                break
+        return xi
+
     @property
     def check_points(self):
         """Points where a cell's Jacobian is checked: nodes and a Gauss rule."""

@@ -1,0 +1,80 @@
+"""The floor of the multiplier space: L2 projections of reference multipliers.
+
+The computed LAGS_C and LAGS_F1 are Galerkin multipliers: at best they are about
+the L2 projection, on the interface, of the exact pressure and friction traction
+onto the trace of the multiplier space.  Projecting a case's ``[reference]``
+formulas and comparing them at the interface points (code_aster's NFISSU points)
+gives the error the space itself cannot go below, to set the computed errors
+against (``bench/multiplier_limit.py``).
+"""
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spl
+
+from xfemcontact.contact import law as claw
+
+
+def _gathered_system(model, values):
+    """Mass matrix of the carriers' traces and right-hand sides of ``values`` (list of
+    (k, ng) arrays at the interface Gauss points), summed over every process."""
+    op = model.interface
+    w, phi = op.pts.w, op.phi                                    # (k, ng), (k, ng, m)
+    dof = model.rep_index                                        # (k, m) global LAGS_C index
+    k, ng, m = phi.shape
+    M = np.einsum("kq,kqa,kqb->kab", w, phi, phi)
+    rows = np.broadcast_to(dof[:, :, None], M.shape)
+    cols = np.broadcast_to(dof[:, None, :], M.shape)
+    ok = (rows >= 0) & (cols >= 0)
+    rhs = [np.einsum("kq,kqa->ka", w * v, phi) for v in values]
+    live = dof >= 0
+    parts = model.comm.tompi4py().allgather((rows[ok], cols[ok], M[ok], dof[live],
+                                             [b[live] for b in rhs]))
+    r = np.concatenate([p[0] for p in parts])
+    c = np.concatenate([p[1] for p in parts])
+    ids, inv = np.unique(np.r_[r, c], return_inverse=True)
+    n = len(ids)
+    A = sp.coo_matrix((np.concatenate([p[2] for p in parts]), (inv[: len(r)], inv[len(r):])),
+                      shape=(n, n)).tocsc()
+    at = np.searchsorted(ids, np.concatenate([p[3] for p in parts]))
+    B = [np.bincount(at, weights=np.concatenate([p[4][i] for p in parts]), minlength=n)
+         for i in range(len(values))]
+    return ids, A, B
+
+
+def best_errors(model, lags_c, lags_f1):
+    """Largest errors at the interface points of the L2-best LAGS_C and LAGS_F1.
+
+    ``lags_c``, ``lags_f1``: reference formulas ``f(x=..., y=...)`` (Pa and -).  The
+    friction unknown is projected as the model solves for it: the tangential
+    traction ``mu LAGS_C LAGS_F1`` (Pa) when it is the traction, else LAGS_F1; the
+    projected LAGS_F1 is then read back like the computed one.  Returns
+    ``{"LAGS_C": e_c, "LAGS_F1": e_f}`` over every process.
+    """
+    op, law = model.interface, model.law
+    xg = op.pts.x
+    c = lags_c(x=xg[..., 0], y=xg[..., 1])
+    f = lags_f1(x=xg[..., 0], y=xg[..., 1])
+    traction = law.unknown == "traction"
+    ids, A, (bc, bf) = _gathered_system(model, [c, law.mu * c * f if traction else f])
+    solve = spl.factorized(A)
+    lam, fr = solve(bc), solve(bf)
+    dof = model.rep_index
+    at = np.searchsorted(ids, np.maximum(dof, 0))
+    lam_v = np.where(dof >= 0, lam[at], 0.0)
+    fr_v = np.where(dof >= 0, fr[at], 0.0)
+    err_c = err_f = 0.0
+    el, segs = model.mesh.element, op.segments
+    xc = model.mesh.x[model.mesh.cell_nodes[segs.cells]]
+    for end in (0, 1):
+        xi = segs.nodes[:, end]
+        p = np.einsum("ka,kai->ki", el.shape(xi), xc)
+        phi = model.space.functions(el.shape_linear(xi))
+        lp = np.einsum("ka,ka->k", phi, lam_v)
+        fp = np.einsum("ka,ka->k", phi, fr_v)
+        f1 = claw.semi_multiplier(law, claw.threshold(lp), fp) if traction else fp
+        err_c = max(err_c, np.abs(lp - lags_c(x=p[:, 0], y=p[:, 1])).max(initial=0.0))
+        err_f = max(err_f, np.abs(f1 - lags_f1(x=p[:, 0], y=p[:, 1])).max(initial=0.0))
+    from mpi4py import MPI      # initialised by PETSc by now (see _petsc: PML choice first)
+
+    mpi = model.comm.tompi4py()
+    return {"LAGS_C": mpi.allreduce(err_c, op=MPI.MAX), "LAGS_F1": mpi.allreduce(err_f, op=MPI.MAX)}
