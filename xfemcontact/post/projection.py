@@ -11,7 +11,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
-from xfemcontact.contact import law as claw
+from xfemcontact._petsc import PETSc
 
 
 def _gathered_system(model, values):
@@ -20,7 +20,6 @@ def _gathered_system(model, values):
     op = model.interface
     w, phi = op.pts.w, op.phi                                    # (k, ng), (k, ng, m)
     dof = model.rep_index                                        # (k, m) global LAGS_C index
-    k, ng, m = phi.shape
     M = np.einsum("kq,kqa,kqb->kab", w, phi, phi)
     rows = np.broadcast_to(dof[:, :, None], M.shape)
     cols = np.broadcast_to(dof[:, None, :], M.shape)
@@ -46,35 +45,28 @@ def best_errors(model, lags_c, lags_f1):
 
     ``lags_c``, ``lags_f1``: reference formulas ``f(x=..., y=...)`` (Pa and -).  The
     friction unknown is projected as the model solves for it: the tangential
-    traction ``mu LAGS_C LAGS_F1`` (Pa) when it is the traction, else LAGS_F1; the
-    projected LAGS_F1 is then read back like the computed one.  Returns
+    traction ``mu LAGS_C LAGS_F1`` (Pa) when it is the traction, else LAGS_F1.  The
+    projections are put in a solution vector and read at the interface points by
+    :meth:`InterfaceOperator.point_values`, like the computed ones.  Returns
     ``{"LAGS_C": e_c, "LAGS_F1": e_f}`` over every process.
     """
+    from mpi4py import MPI      # initialised by PETSc by now (see _petsc: PML choice first)
+
     op, law = model.interface, model.law
     xg = op.pts.x
     c = lags_c(x=xg[..., 0], y=xg[..., 1])
     f = lags_f1(x=xg[..., 0], y=xg[..., 1])
-    traction = law.unknown == "traction"
-    ids, A, (bc, bf) = _gathered_system(model, [c, law.mu * c * f if traction else f])
+    ids, A, (bc, bf) = _gathered_system(model, [c, law.mu * c * f if law.unknown == "traction" else f])
     solve = spl.factorized(A)
-    lam, fr = solve(bc), solve(bf)
-    dof = model.rep_index
-    at = np.searchsorted(ids, np.maximum(dof, 0))
-    lam_v = np.where(dof >= 0, lam[at], 0.0)
-    fr_v = np.where(dof >= 0, fr[at], 0.0)
-    err_c = err_f = 0.0
-    el, segs = model.mesh.element, op.segments
-    xc = model.mesh.x[model.mesh.cell_nodes[segs.cells]]
-    for end in (0, 1):
-        xi = segs.nodes[:, end]
-        p = np.einsum("ka,kai->ki", el.shape(xi), xc)
-        phi = model.space.functions(el.shape_linear(xi))
-        lp = np.einsum("ka,ka->k", phi, lam_v)
-        fp = np.einsum("ka,ka->k", phi, fr_v)
-        f1 = claw.semi_multiplier(law, claw.threshold(lp), fp) if traction else fp
-        err_c = max(err_c, np.abs(lp - lags_c(x=p[:, 0], y=p[:, 1])).max(initial=0.0))
-        err_f = max(err_f, np.abs(f1 - lags_f1(x=p[:, 0], y=p[:, 1])).max(initial=0.0))
-    from mpi4py import MPI      # initialised by PETSc by now (see _petsc: PML choice first)
-
+    x = model.layout.create_global_vec()
+    x.set(0.0)
+    lo, hi = x.getOwnershipRange()
+    own = (ids >= lo) & (ids < hi)          # LAGS_C dof ids; LAGS_F1 is the next dof
+    x.setValues(np.r_[ids[own], ids[own] + 1].astype(PETSc.IntType),
+                np.r_[solve(bc)[own], solve(bf)[own]])
+    x.assemble()
+    v = op.point_values(x)
     mpi = model.comm.tompi4py()
-    return {"LAGS_C": mpi.allreduce(err_c, op=MPI.MAX), "LAGS_F1": mpi.allreduce(err_f, op=MPI.MAX)}
+    return {name: mpi.allreduce(float(np.abs(v[name] - ref(x=v["x"], y=v["y"])).max(initial=0.0)),
+                                op=MPI.MAX)
+            for name, ref in (("LAGS_C", lags_c), ("LAGS_F1", lags_f1))}
