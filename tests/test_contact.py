@@ -51,7 +51,8 @@ def test_interface_table_layout(tmp_path):
 
 
 @pytest.mark.parametrize("name", ["opening", "slip_straight", "slip_straight_tria6", "low_friction",
-                                  "frictionless"])
+                                  "frictionless", "tangent_circle", "tangent_circle_tria6",
+                                  "ellipse_tria6", "inclined_line_tria6", "sinusoid"])
 def test_beyond_stick(tmp_path, name):
     out = tmp_path / name
     p = run_cli(["run", CASES / "validation" / f"{name}.toml", "-o", out])
@@ -119,6 +120,25 @@ def test_mpi_same_interface_values(tmp_path):
     p = run_cli(["run", CASES / "ssnv509a.toml", "-o", two], np=2)
     assert p.returncode == 0, p.stdout + p.stderr
     a, b = results(one)["interface"], results(two)["interface"]
+    for k in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip"):
+        assert np.allclose(a[k], b[k], rtol=0, atol=1e-10), k
+
+
+@pytest.mark.mpi
+def test_mpi_interface_pushed_off_edges(tmp_path):
+    """The wavy interface touches two mesh edges: the cells along them are cut again
+    with the zero line pushed off (a collective retry); 3 processes decide the same
+    edges and give the values of one process."""
+    one, three = tmp_path / "one", tmp_path / "three"
+    case = CASES / "validation" / "sinusoid.toml"
+    assert run_cli(["run", case, "-o", one]).returncode == 0
+    p = run_cli(["run", case, "-o", three], np=3)
+    assert p.returncode == 0, p.stdout + p.stderr
+    r1, r3 = results(one), results(three)
+    assert r1["geometry"]["readjusted"] == r3["geometry"]["readjusted"]
+    assert r1["geometry"]["readjusted"]["pushed_off_edges"] == 2
+    assert sum(c > 0 for c in r3["geometry"]["cut_cells_per_process"]) >= 2
+    a, b = r1["interface"], r3["interface"]
     for k in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip"):
         assert np.allclose(a[k], b[k], rtol=0, atol=1e-10), k
 

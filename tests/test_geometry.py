@@ -250,3 +250,62 @@ def test_cell_max_at_nodes_is_the_scatter_max():
     np.testing.assert_array_equal(got, want)
     assert not got[50:].any()
     assert cell_max_at_nodes(np.zeros((0, 6), int), values).sum() == 0.0
+
+
+# -- interfaces tangent to a mesh edge -----------------------------------------------
+def _ellipse(xc, yc, a, b):
+    """Level set of an ellipse and its lower arc y(x), y'(x)."""
+    def low(x):
+        return yc - b * np.sqrt(1 - ((x - xc) / a) ** 2)
+
+    def slope(x):
+        u = (x - xc) / a
+        return b * u / (a * np.sqrt(1 - u * u))
+
+    return (lambda x, y: ((x - xc) / a) ** 2 + ((y - yc) / b) ** 2 - 1), low, slope
+
+
+#: curves whose lowest point lies on the mesh line y = 5 (circles of radius 8) or
+#: y = 3.5 (the ellipse) of a 20 x 20 mesh (h = 0.5), by where they touch it.  A dip
+#: of 3e-3 m below the line crosses one edge twice (readjustment rule 3).
+TANGENT = {"at a vertex": _ellipse(5.0, 13.0, 8.0, 8.0),
+           "at a mid-node": _ellipse(5.25, 13.0, 8.0, 8.0),
+           "inside an edge": _ellipse(5.1, 13.0, 8.0, 8.0),
+           "dipping below an edge": _ellipse(5.25, 12.997, 8.0, 8.0),
+           "ellipse at a vertex": _ellipse(5.0, 11.0, 6.0, 7.5)}
+
+
+def lower_arc_geometry(low, slope):
+    """Exact area of the - side (above the lower arc) of [0, 10]^2 and the arc length."""
+    from scipy.integrate import quad
+
+    area = quad(lambda x: 10 - low(x), 0, 10, epsabs=1e-13, epsrel=1e-13)[0]
+    length = quad(lambda x: math.sqrt(1 + slope(x) ** 2), 0, 10, epsabs=1e-13, epsrel=1e-13)[0]
+    return area, length
+
+
+@pytest.mark.parametrize("cell", ["QUAD8", "TRIA6"])
+@pytest.mark.parametrize("kind", list(TANGENT))
+def test_interface_tangent_to_a_mesh_edge(cell, kind):
+    """A curve touching a row of cell edges is cut, with areas and length to the
+    accuracy of the quadratic segments: at a node the tangency is kept (the sliver
+    next to it may fold on less than ``cut.FOLD_AREA`` of its cell; zero-area fan
+    triangles are dropped); inside an edge the zero line is pushed off that edge
+    (rule 3), which moves the interface by about the clearance it then has."""
+    ln, low, slope = TANGENT[kind]
+    mesh = plex.load(rectangle(20, 20, cell=cell))
+    geo = geometry.build(mesh, ln(mesh.x[:, 0], mesh.x[:, 1]))
+    areas, wmin = side_areas(mesh, geo)
+    length = float(interface_points(mesh, geo).w.sum())
+    minus, exact_length = lower_arc_geometry(low, slope)
+    r = geo.readjustment
+    err_area, err_length = areas[-1] - minus, length - exact_length
+    print(f"\n{cell} tangent {kind}: lifted {r.lifted_edges}, pushed off {r.pushed_off}, "
+          f"area error {err_area:+.2e}, length error {err_length:+.2e}, min weight {wmin:.1e}")
+    assert abs(areas[-1] + areas[1] - 100.0) <= 1e-11
+    if "vertex" in kind or "mid-node" in kind:
+        assert r.pushed_off == 0
+        assert abs(err_area) < 2e-5 and abs(err_length) < 2e-5
+    else:
+        assert r.lifted_edges >= 1
+        assert abs(err_area) < 2e-3 and abs(err_length) < 1e-3

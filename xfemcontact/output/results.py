@@ -59,7 +59,8 @@ def geometry_summary(model):
             "enriched_nodes": mpi.allreduce(int((geo.enriched & model.mesh.node_owned).sum())),
             "dropped_heaviside_nodes": mpi.allreduce(geo.dropped),
             "readjusted": {"roundoff": mpi.allreduce(r.roundoff), "fitted_vertices": mpi.allreduce(r.fitted_vertices),
-                           "lifted_edges": mpi.allreduce(r.lifted_edges)}}
+                           "lifted_edges": mpi.allreduce(r.lifted_edges),
+                           "pushed_off_edges": mpi.allreduce(r.pushed_off)}}
 
 
 def interface_table(model):

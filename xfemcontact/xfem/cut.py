@@ -284,26 +284,68 @@ def subcell_jacobians(nodes, zeta):
     return J[:, :, 0, :, 0] * J[:, :, 1, :, 1] - J[:, :, 0, :, 1] * J[:, :, 1, :, 0]
 
 
-def check_subcells(nodes, side, cell_ids):
-    """Every sub-triangle must have a positive Jacobian everywhere."""
+#: largest reference area, as a fraction of the parent cell's, on which a
+#: sub-triangle's Jacobian may be negative
+FOLD_AREA = 1e-4
+
+
+def _lattice(m):
+    """Centroids of the m^2 sub-triangles of the reference triangle split m times per side."""
+    i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
+    up = np.stack([i + 1 / 3, j + 1 / 3], axis=-1)[i + j <= m - 1]
+    down = np.stack([i + 2 / 3, j + 2 / 3], axis=-1)[i + j <= m - 2]
+    return np.r_[up, down] / m
+
+
+def folded_area(nodes, m=24):
+    """Reference areas (parent coordinates) of sub-triangles ``nodes (..., 6, 2)``:
+    ``(signed, folded)``, the integral of det and of max(-det, 0), each ``(...)``,
+    estimated on the centroids of an ``m x m`` split of the reference triangle."""
+    zeta = _lattice(m)
+    det = subcell_jacobians(nodes, zeta) * (0.5 / len(zeta))
+    return det.sum(axis=-1), -np.minimum(det, 0.0).sum(axis=-1)
+
+
+def invalid_subcells(nodes, side, parent_area):
+    """Cells whose sub-triangles do not map one-to-one: ``(k,)`` bool.
+
+    A sub-triangle of zero area (three points on one straight edge, when the
+    interface is tangent to it at P3) is dropped (its ``side`` set to 0).  An
+    interface tangent to a cell edge at a node leaves a sliver whose curved side,
+    the quadratic segment, crosses the straight edge by O(h^3) near the tangency:
+    the map folds there.  Integrals with the signed Jacobian remain those over
+    the side (its boundary still winds once), so such a fold is accepted when its
+    area is below ``FOLD_AREA`` of the cell.
+    """
     zeta = TRI6.check_points
     det = subcell_jacobians(nodes, zeta)
     area = np.abs(det).max(axis=2)
+    flat = (side != 0) & (area <= 1e-12 * parent_area)
+    side[flat] = 0
     bad = (side != 0) & ~np.all(det > 1e-12 * np.maximum(area, 1e-300)[..., None], axis=2)
     if bad.any():
-        c = int(np.nonzero(bad.any(axis=1))[0][0])
-        raise GeometryError(f"level set: the interface is too curved in cell {cell_ids[c]} to be "
-                            f"followed by quadratic sub-cells: refine the mesh there")
+        c, s = np.nonzero(bad)
+        signed, fold = folded_area(nodes[c, s][:, None])
+        ok = (fold[:, 0] <= FOLD_AREA * parent_area) & (signed[:, 0] > fold[:, 0])
+        bad[c[ok], s[ok]] = False
+    return bad.any(axis=1)
+
+
+def too_curved(cell_id):
+    return GeometryError(f"level set: the interface is too curved in cell {cell_id} to be "
+                         f"followed by quadratic sub-cells: refine the mesh there")
 
 
 # -- driver ----------------------------------------------------------------------
 def cut_cells(mesh, phi, side):
-    """Segments and sub-cells of the cut cells (``side == 0``)."""
+    """Segments and sub-cells of the cut cells (``side == 0``), and the mask
+    ``(k,)`` of those whose sub-cells are invalid (:func:`invalid_subcells`)."""
     el = mesh.element
     cells = np.nonzero(side == 0)[0]
     if len(cells) == 0:
         return (Segments(cells, np.zeros((0, 3, 2)), np.zeros((0, 2), np.int64)),
-                SubCells(cells, np.zeros((0, 2 * (el.nv + 1), 6, 2)), np.zeros((0, 2 * (el.nv + 1)), np.int64)))
+                SubCells(cells, np.zeros((0, 2 * (el.nv + 1), 6, 2)), np.zeros((0, 2 * (el.nv + 1)), np.int64)),
+                np.zeros(0, bool))
     phi_cell = phi[mesh.cell_nodes[cells]]
     xi, where, count = intersection_points(el, phi_cell)
     if np.any(count != 2):
@@ -316,8 +358,8 @@ def cut_cells(mesh, phi, side):
     p3 = segment_midpoints(el, phi_cell, xi[:, 0], xi[:, 1], mesh.cell_ids[cells])
     seg = np.concatenate([xi, p3[:, None]], axis=1)
     nodes, sub_side, _ = subcells(el, seg, where)
-    check_subcells(nodes, sub_side, mesh.cell_ids[cells])
-    return Segments(cells, seg, where), SubCells(cells, nodes, sub_side)
+    bad = invalid_subcells(nodes, sub_side, 1.0 / el.ref_area_inv)
+    return Segments(cells, seg, where), SubCells(cells, nodes, sub_side), bad
 
 
 def edge_segments(mesh, phi, side):

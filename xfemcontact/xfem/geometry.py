@@ -68,9 +68,7 @@ class Geometry:
 
 def build(mesh, phi):
     """Readjust LN, classify and cut the cells, select the enriched nodes."""
-    phi, info = levelset.readjust(mesh, phi)
-    side = levelset.classify(mesh, phi)
-    segs, subs = cut.cut_cells(mesh, phi, side)
+    phi, info, side, segs, subs = _cut(mesh, phi)
     esegs = cut.edge_segments(mesh, phi, side)
     node_side = np.where(phi >= 0, 1, -1)
     enriched = _opposite_in_support(mesh, side, node_side)
@@ -82,6 +80,25 @@ def build(mesh, phi):
     geo.enriched = enriched & ~drop
     geo.dropped = int((drop & mesh.node_owned).sum())
     return geo
+
+
+def _cut(mesh, phi_in):
+    """Readjust, classify and cut.  Cut cells whose sub-cells cannot follow the
+    interface along an edge it touches or nearly touches are cut again with the
+    zero line pushed off their sagging edges (readjustment rule 3; collective)."""
+    phi, info = levelset.readjust(mesh, phi_in)
+    side = levelset.classify(mesh, phi)
+    segs, subs, bad = cut.cut_cells(mesh, phi, side)
+    retry = np.zeros(len(phi), np.int64)
+    retry[mesh.cell_nodes[segs.cells[bad], mesh.element.nv:].ravel()] = 1
+    retry = reduce_nodes(mesh, retry, "max").astype(bool)
+    if mesh.comm.tompi4py().allreduce(int(retry.any())):
+        phi, info = levelset.readjust(mesh, phi_in, push_off=retry)
+        side = levelset.classify(mesh, phi)
+        segs, subs, bad = cut.cut_cells(mesh, phi, side)
+    if bad.any():
+        raise cut.too_curved(mesh.cell_ids[segs.cells[np.nonzero(bad)[0][0]]])
+    return phi, info, side, segs, subs
 
 
 def _opposite_in_support(mesh, side, node_side):

@@ -19,10 +19,17 @@ reported, like code_aster's XFEM_37/XFEM_63 messages):
    This moves the interface by at most about 1e-6 h and removes sub-cells
    thinner than that.
 3. *One crossing per edge.*  If the quadratic on an edge changes sign twice (or
-   vanishes at a vertex and changes sign inside), its mid-node value is moved to
-   the nearest value for which the quadratic keeps one sign on the edge: the
-   thin part of the other side cut off by the edge is dropped.  The number of
-   such edges and the largest change of a mid-node value are reported.
+   vanishes at a vertex and changes sign inside, or touches zero inside), its
+   mid-node value is moved to the nearest value for which the quadratic keeps
+   one sign on the edge: the quadratic then touches zero at one point of the
+   edge (the interface is tangent to it there) and the thin part of the other
+   side cut off by the edge is dropped.  Where the sub-cells of a cut cell
+   cannot follow the interface along such an edge (a tangency that is not at a
+   node), or along an edge the interface nearly touches, the mid-node values of
+   that cell's edges that sag towards zero are moved further, until the zero
+   line leaves the edge (``push_off``; the cells are then cut again).  The
+   number of such edges and the largest change of a mid-node value are
+   reported.
 
 Classification of a cell, from its node values after readjustment:
 ``cut`` (strictly positive and strictly negative node values), otherwise on the
@@ -81,6 +88,7 @@ class Readjustment:
     fitted_vertices: int = 0
     lifted_edges: int = 0
     max_lift: float = 0.0    # largest change of a mid-node value
+    pushed_off: int = 0      # lifted edges whose zero line was pushed off the edge
 
 
 def _mesh_edges(mesh):
@@ -113,8 +121,11 @@ def cell_max_at_nodes(cell_nodes, values):
     return out
 
 
-def readjust(mesh, phi):
+def readjust(mesh, phi, push_off=None):
     """Apply the readjustment rules; returns ``(phi, Readjustment)``.
+
+    ``push_off``: optional ``(n,)`` bool, mid-nodes whose edge gets its zero line
+    pushed off (rule 3) instead of left tangent.
 
     Decisions at nodes shared by several processes are combined so that every
     process ends with the same values.
@@ -126,7 +137,7 @@ def readjust(mesh, phi):
     # 1. round-off, relative to the largest value in the cells holding the node
     scale = reduce_nodes(mesh, cell_max_at_nodes(mesh.cell_nodes, np.abs(phi)), "max")
     tiny = (np.abs(phi) <= ROUNDOFF * scale) & (phi != 0)
-    info.roundoff = int(tiny.sum())
+    info.roundoff = int((tiny & mesh.node_owned).sum())
     phi[tiny] = 0.0
     # 2. fit to vertex
     roots = edge_roots(phi[a], phi[b], phi[m])
@@ -141,33 +152,41 @@ def readjust(mesh, phi):
     on_edge = (phi[a] == 0) & (phi[b] == 0) & (np.abs(phi[m]) <= 2 * FIT_TO_VERTEX * scale[m])
     phi[m[on_edge]] = 0.0
     # 3. one crossing per edge
-    phi_m, lifted = _lift_double_crossings(phi[a], phi[b], phi[m])
-    info.lifted_edges = int(lifted.sum())
+    push = np.zeros(len(m), bool) if push_off is None else np.asarray(push_off)[m]
+    phi_m, lifted = _lift_double_crossings(phi[a], phi[b], phi[m], push)
+    owned = mesh.node_owned[m]                   # count each edge once over the processes
+    info.lifted_edges = int((lifted & owned).sum())
+    info.pushed_off = int((lifted & push & owned).sum())
     if lifted.any():
         info.max_lift = float(np.abs(phi_m - phi[m]).max())
     phi[m] = phi_m
     return phi, info
 
 
-def _lift_double_crossings(pa, pb, pm):
-    """Mid-node values making each edge quadratic cross zero at most once."""
+def _lift_double_crossings(pa, pb, pm, push_off):
+    """Mid-node values making each edge quadratic cross zero at most once.
+
+    ``push_off (k,)`` bool: on these edges, if their vertices have one sign and
+    the quadratic sags towards zero between them, push the zero line off the
+    edge (the quadratic becomes monotone).  Returns ``(values, lifted)``.
+    """
     roots = edge_roots(pa, pb, pm)
     n_inner = np.sum(~np.isnan(roots), axis=1)
     at_vertex = (pa == 0) | (pb == 0)
     same = (pa * pb > 0)
     bad = (same & (n_inner >= 1)) | (at_vertex & ~((pa == 0) & (pb == 0)) & (n_inner >= 1))
-    out = pm.copy()
-    if not bad.any():
-        return out, bad
     # With u = |values| >= 0 on the edge, the quadratic through (ua, c, ub) has the
-    # minimum value 0 at |s*| >= 1 for c = (sqrt(ua) + sqrt(ub))^2 / 4: it is then
-    # monotone on the edge, which pushes the zero line off the edge (the smaller
-    # root of the same equation would leave it tangent to the edge).
-    s = np.where(pa[bad] + pb[bad] > 0, 1.0, -1.0)        # sign of the edge's values
-    ua, ub = np.abs(pa[bad]), np.abs(pb[bad])
-    c = 0.25 * (np.sqrt(ua) + np.sqrt(ub)) ** 2
-    out[bad] = s * np.maximum(c, 0.0)
-    return out, bad
+    # minimum value 0 (a double root) for c = (sqrt(ua) -+ sqrt(ub))^2 / 4: with
+    # "-" at s* = (sqrt(ua) - sqrt(ub)) / (sqrt(ua) + sqrt(ub)) on the edge, the
+    # least change (the interface stays tangent to the edge); with "+" at
+    # |s*| >= 1, monotone on the edge, which pushes the zero line off it.
+    s = np.where(pa + pb > 0, 1.0, -1.0)                 # sign of the edge's values
+    ua, ub = np.abs(pa), np.abs(pb)
+    off = 0.25 * (np.sqrt(ua) + np.sqrt(ub)) ** 2
+    lifted = bad | (push_off & (same | at_vertex) & (s * pm < off))
+    c = np.where(push_off, off, 0.25 * (np.sqrt(ua) - np.sqrt(ub)) ** 2)
+    c += 1e-14 * (ua + ub)                 # no round-off dip below zero at s*
+    return np.where(lifted, s * c, pm), lifted
 
 
 def classify(mesh, phi):
