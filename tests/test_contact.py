@@ -52,7 +52,8 @@ def test_interface_table_layout(tmp_path):
 
 @pytest.mark.parametrize("name", ["opening", "slip_straight", "slip_straight_tria6", "low_friction",
                                   "frictionless", "tangent_circle", "tangent_circle_tria6",
-                                  "ellipse_tria6", "inclined_line_tria6", "sinusoid"])
+                                  "ellipse_tria6", "inclined_line_tria6", "sinusoid",
+                                  "ssnv509_jittered"])
 def test_beyond_stick(tmp_path, name):
     out = tmp_path / name
     p = run_cli(["run", CASES / "validation" / f"{name}.toml", "-o", out])
