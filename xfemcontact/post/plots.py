@@ -295,7 +295,7 @@ def write(folder, title, post=None, table=None, history=None, iterations=None,
     def save(fig, name):
         from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-        FigureCanvasAgg(fig)
+        FigureCanvasAgg(fig)             # the figure is drawn once, by savefig
         fig.savefig(folder.file(name))
         written.append(name)
 

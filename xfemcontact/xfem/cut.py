@@ -279,9 +279,10 @@ TRI6 = element("TRIA6")
 
 
 def subcell_jacobians(nodes, zeta):
-    """det of the maps reference triangle -> parent reference coordinates at ``zeta``."""
-    J = np.tensordot(nodes, TRI6.dshape(zeta), axes=([2], [1]))              # (k, s, 2, q, 2), one BLAS call
-    return J[:, :, 0, :, 0] * J[:, :, 1, :, 1] - J[:, :, 0, :, 1] * J[:, :, 1, :, 0]
+    """det of the maps reference triangle -> parent reference coordinates at ``zeta``:
+    ``nodes (..., 6, 2)`` -> ``(..., q)``."""
+    J = np.tensordot(nodes, TRI6.dshape(zeta), axes=([-2], [1]))             # (..., 2, q, 2), one BLAS call
+    return J[..., 0, :, 0] * J[..., 1, :, 1] - J[..., 0, :, 1] * J[..., 1, :, 0]
 
 
 #: largest reference area, as a fraction of the parent cell's, on which a
@@ -325,8 +326,8 @@ def invalid_subcells(nodes, side, parent_area):
     bad = (side != 0) & ~np.all(det > 1e-12 * np.maximum(area, 1e-300)[..., None], axis=2)
     if bad.any():
         c, s = np.nonzero(bad)
-        signed, fold = folded_area(nodes[c, s][:, None])
-        ok = (fold[:, 0] <= FOLD_AREA * parent_area) & (signed[:, 0] > fold[:, 0])
+        signed, fold = folded_area(nodes[c, s])
+        ok = (fold <= FOLD_AREA * parent_area) & (signed > fold)
         bad[c[ok], s[ok]] = False
     return bad.any(axis=1)
 

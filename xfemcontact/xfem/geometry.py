@@ -86,16 +86,17 @@ def _cut(mesh, phi_in):
     """Readjust, classify and cut.  Cut cells whose sub-cells cannot follow the
     interface along an edge it touches or nearly touches are cut again with the
     zero line pushed off their sagging edges (readjustment rule 3; collective)."""
-    phi, info = levelset.readjust(mesh, phi_in)
-    side = levelset.classify(mesh, phi)
-    segs, subs, bad = cut.cut_cells(mesh, phi, side)
+    def attempt(push_off=None):
+        phi, info = levelset.readjust(mesh, phi_in, push_off)
+        side = levelset.classify(mesh, phi)
+        return (phi, info, side) + cut.cut_cells(mesh, phi, side)
+
+    phi, info, side, segs, subs, bad = attempt()
     retry = np.zeros(len(phi), np.int64)
     retry[mesh.cell_nodes[segs.cells[bad], mesh.element.nv:].ravel()] = 1
     retry = reduce_nodes(mesh, retry, "max").astype(bool)
     if mesh.comm.tompi4py().allreduce(int(retry.any())):
-        phi, info = levelset.readjust(mesh, phi_in, push_off=retry)
-        side = levelset.classify(mesh, phi)
-        segs, subs, bad = cut.cut_cells(mesh, phi, side)
+        phi, info, side, segs, subs, bad = attempt(retry)
     if bad.any():
         raise cut.too_curved(mesh.cell_ids[segs.cells[np.nonzero(bad)[0][0]]])
     return phi, info, side, segs, subs
