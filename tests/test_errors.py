@@ -249,6 +249,11 @@ def test_level_set_outside_the_domain_warns_and_solves(tmp_path):
     assert r["dofs"]["LAGS_C"] == 0 and r["dofs"]["heaviside"] == 0
     assert expected.removeprefix("warning: ") in r["warnings"]
     assert r["tests"][0]["samples"] == 0 and r["tests"][0]["ok"] is False
+    # said in words, and results.json stays strict JSON (no NaN / Infinity)
+    assert any(line.startswith("NOOK") and "no point selected" in line for line in proc.stdout.splitlines())
+    strict = json.loads((out / "results.json").read_text(),
+                        parse_constant=lambda c: pytest.fail(f"results.json holds {c}"))
+    assert strict["tests"][0]["value"] is None and strict["tests"][0]["error"] is None
 
 
 def test_level_set_touching_the_domain_warns(tmp_path):

@@ -121,7 +121,7 @@ class Model:
             segs = geo.segments()
             el = mesh.element
             self.segment_points = integration.segment_points(
-                el, x[mesh.cell_nodes[segs.cells]], segs, self.case.contact.ordre_int)
+                el, x[mesh.cell_nodes[segs.cells]], segs, self.case.contact.ordre_int, mesh.cell_ids[segs.cells])
             sp = self.segment_points
             self.space = cspace.build(mesh, segs, self.case.contact.algo_lagr,
                                       el.shape_linear(sp.xi), sp.w)

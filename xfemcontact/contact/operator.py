@@ -179,13 +179,12 @@ class InterfaceOperator:
                                "cell", "end")}
         g_all, ut_all, lam_all, Lam_all = self.point_fields(ve)
         t = self.terms(x)
+        X = el.map_points(xc, segs.nodes)                          # physical P1, P2, P3
         for end, s in ((0, -1.0), (1, 1.0)):
             xi = segs.nodes[:, end]
             N = el.shape(xi)
-            pos = np.einsum("ka,kai->ki", N, xc)
-            J = np.einsum("kaj,kai->kij", el.dshape(xi), xc)
-            dxi = np.einsum("a,kai->ki", Seg3.dshape(np.array(s)), segs.nodes)
-            tan = np.einsum("kij,kj->ki", J, dxi)
+            pos = X[:, end]
+            tan = np.einsum("a,kai->ki", Seg3.dshape(np.array(s)), X)
             n = np.stack([-tan[:, 1], tan[:, 0]], axis=1) / np.linalg.norm(tan, axis=1)[:, None]
             tau = integration.tangent_of(n)
             phi = self.space.functions(el.shape_linear(xi))

@@ -65,6 +65,44 @@ class Element:
                 break
         return xi
 
+    def map_points(self, x, xi):
+        """Physical points ``(k, ..., 2)`` (m) of reference points ``xi (k, ..., 2)``
+        under the isoparametric maps of cells ``x (k, nn, 2)``."""
+        return np.einsum("k...a,kai->k...i", self.shape(xi), x)
+
+    def inverse_map(self, x, pts, xi0, live=None, iters=30, tol=1e-13):
+        """Reference coordinates ``(k, p, 2)`` of physical points ``pts (k, p, 2)`` in
+        cells ``x (k, nn, 2)``: Newton on ``sum_a N_a(xi) x_a = pts`` from ``xi0``.
+
+        ``live (k, p)`` bool limits the work to some points (the others keep
+        ``xi0``).  A point stops when its Newton step is below ``tol`` (reference
+        units) or its residual is at round-off of the coordinates, so points that
+        ``xi0`` already maps, every point of an affine cell for a guess composed of
+        affine maps, keep ``xi0`` exactly.
+        Returns ``(xi, failed)``: ``failed (k,)`` marks cells with a point that did
+        not converge.
+        """
+        k, p = pts.shape[:2]
+        xi = np.array(xi0, dtype=float).reshape(k * p, 2)
+        target = pts.reshape(k * p, 2)
+        cell = np.repeat(np.arange(k), p)
+        active = np.ones(k * p, bool) if live is None else np.asarray(live, bool).reshape(-1).copy()
+        floor = 16 * np.finfo(float).eps * np.abs(x).max(axis=(1, 2))         # (k,) round-off of x
+        for _ in range(iters):
+            idx = np.nonzero(active)[0]
+            if len(idx) == 0:
+                break
+            xc = x[cell[idx]]
+            r = np.einsum("ma,mai->mi", self.shape(xi[idx]), xc) - target[idx]
+            J = np.einsum("mai,maj->mij", xc, self.dshape(xi[idx]))
+            step = np.linalg.solve(J, r[..., None])[..., 0]
+            small = (np.abs(step).max(axis=1) <= tol) | (np.abs(r).max(axis=1) <= floor[cell[idx]])
+            xi[idx[~small]] -= step[~small]
+            active[idx[small]] = False
+        failed = np.zeros(k, bool)
+        failed[cell[active]] = True
+        return xi.reshape(k, p, 2), failed
+
     @property
     def check_points(self):
         """Points where a cell's Jacobian is checked: nodes and a Gauss rule."""

@@ -114,8 +114,10 @@ class OutputFolder:
             self.file(name).write_text(text, encoding="utf-8")
 
     def write_json(self, name, obj):
+        """Strict JSON: NaN and infinities (a test that selected no point) become null."""
         if self.rank == 0:
-            self.file(name).write_text(json.dumps(obj, indent=1, default=_jsonable) + "\n", encoding="utf-8")
+            text = json.dumps(_strict(obj), indent=1, default=_jsonable, allow_nan=False)
+            self.file(name).write_text(text + "\n", encoding="utf-8")
 
     def commit(self):
         """Replace the target by the finished folder (signals held back meanwhile)."""
@@ -153,6 +155,23 @@ class OutputFolder:
                 except OSError:
                     break
             self._made = []
+
+
+def _strict(obj):
+    """``obj`` with non-finite floats (Python or NumPy, in containers and arrays) as None."""
+    import math
+
+    import numpy as np
+
+    if isinstance(obj, dict):
+        return {k: _strict(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_strict(v) for v in obj]
+    if isinstance(obj, np.ndarray) and obj.dtype.kind == "f" and not np.isfinite(obj).all():
+        return _strict(obj.tolist())
+    if isinstance(obj, (float, np.floating)) and not math.isfinite(obj):
+        return None
+    return obj
 
 
 def _jsonable(obj):

@@ -168,16 +168,13 @@ def dense_curves(el, seg, curve, s0, rev, n=DENSE):
     """Dense polylines ``{"x", "y", "s"}`` (m) of every curve, segments in curve order;
     ``rev (K,)``: the segment is walked P1 -> P2 (else P2 -> P1)."""
     t = np.where(rev[:, None], -1.0, 1.0) * np.linspace(1.0, -1.0, n)[None, :]   # (K, n) walk order
-    xi = np.einsum("kpa,kai->kpi", Seg3.shape(t), seg["nodes"])
-    x = np.einsum("kpa,kai->kpi", el.shape(xi), seg["xc"])
+    X = el.map_points(seg["xc"], seg["nodes"])           # the physical quadratic curve (cut.segment_curve)
+    x = np.einsum("kpa,kai->kpi", Seg3.shape(t), X)
     # arc length of each sub-interval (4-point Gauss-Legendre), scaled to the segment length
     g, wg = np.polynomial.legendre.leggauss(4)
     ta, tb = t[:, :-1], t[:, 1:]
     tq = 0.5 * (ta + tb)[..., None] + 0.5 * (tb - ta)[..., None] * g                # (K, n-1, 4)
-    xq = np.einsum("kpqa,kai->kpqi", Seg3.shape(tq), seg["nodes"])
-    dxq = np.einsum("kpqa,kai->kpqi", Seg3.dshape(tq), seg["nodes"])
-    J = np.einsum("kpqaj,kai->kpqij", el.dshape(xq), seg["xc"])
-    speed = np.linalg.norm(np.einsum("kpqij,kpqj->kpqi", J, dxq), axis=-1)
+    speed = np.linalg.norm(np.einsum("kpqa,kai->kpqi", Seg3.dshape(tq), X), axis=-1)
     sub = np.einsum("kpq,q->kp", speed, wg) * 0.5 * np.abs(tb - ta)
     sub *= (seg["length"] / np.maximum(sub.sum(axis=1), 1e-300))[:, None]
     s = s0[:, None] + np.c_[np.zeros(len(sub)), np.cumsum(sub, axis=1)]

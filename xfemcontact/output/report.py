@@ -3,6 +3,8 @@
 Written during the output phase, so its timings stop there (results.json has
 the output phase and the total).
 """
+import math
+
 
 FILE_NOTES = {
     "fields.xdmf": "post-processing mesh and fields (ParaView: open this file)",
@@ -83,8 +85,9 @@ def render(summary, files, case_source="", warnings=()):
     out += ["## Tests", ""]
     if s["tests"]:
         out += _table(["", "test", "field", "type", "computed", "reference", "error", "tolerance", "criterion", "at"],
-                      [["OK" if t["ok"] else "**NOOK**", t["name"], t["field"], t["type"], f"{t['value']:.10e}",
-                        f"{t['reference']:.10e}", f"{t['error']:.3e}", f"{t['tolerance']:.2e}", t["criterion"],
+                      [["OK" if t["ok"] else "**NOOK**", t["name"], t["field"], t["type"],
+                        _number(t["value"], ".10e", "no point selected" if not t.get("samples") else "-"),
+                        f"{t['reference']:.10e}", _number(t["error"], ".3e"), f"{t['tolerance']:.2e}", t["criterion"],
                         "-" if not t.get("at") else f"({t['at'][0]:.6g}, {t['at'][1]:.6g})"] for t in s["tests"]])
     else:
         out.append("No tests in the case." if s["converged"] else "Not converged: no test evaluated.")
@@ -103,3 +106,8 @@ def write(folder, summary, files, case_source="", warnings=()):
     """Write report.md (rank 0); returns ``["report.md"]``."""
     folder.write_text("report.md", render(summary, files, case_source, warnings))
     return ["report.md"]
+
+
+def _number(v, fmt, missing="-"):
+    """``v`` formatted, or ``missing`` when it is None or not finite."""
+    return format(v, fmt) if v is not None and math.isfinite(v) else missing

@@ -128,6 +128,11 @@ def table(outcomes):
     lines = [f"{'':4} {'test':32} {'computed':>17} {'reference':>17} {'error':>10} {'tolerance':>10} criterion"]
     for o in outcomes:
         flag = "OK" if o.ok else "NOOK"
+        if not np.isfinite(o.value):         # nothing to test: say so, not nan / inf
+            what = "no point selected" if o.count == 0 else "not finite"
+            lines.append(f"{flag:4} {o.name[:32]:32} {what:>17} {o.reference:17.10e} "
+                         f"{'-':>10} {o.tolerance:10.2e} {o.criterion}")
+            continue
         lines.append(f"{flag:4} {o.name[:32]:32} {o.value:17.10e} {o.reference:17.10e} "
                      f"{o.error:10.3e} {o.tolerance:10.2e} {o.criterion}")
     return lines

@@ -34,9 +34,10 @@ import numpy as np
 from xfemcontact.assembly import bulk
 from xfemcontact.assembly.system import enriched_gradients
 from xfemcontact.fem import elasticity
-from xfemcontact.fem.elements import Seg3, element
+from xfemcontact.fem.elements import element
 from xfemcontact.post import fields
 from xfemcontact.xfem import geometry as xgeo
+from xfemcontact.xfem.cut import segment_curve
 
 MESHIO_CELL = {"QUAD8": "quad8", "TRIA6": "triangle6"}
 #: interface points of a cut-cell segment: its ends, mid-point and quarter points
@@ -177,8 +178,7 @@ def interface_samples(model):
     ve = op.element_values(model.x)
     terms = op.terms(model.x)
     nn, nv = op.nn, op.nv
-    xi = np.einsum("pa,kai->kpi", Seg3.shape(SEGMENT_POINTS), segs.nodes)     # (k, 5, 2)
-    x = np.einsum("kpa,kai->kpi", el.shape(xi), mesh.x[mesh.cell_nodes[segs.cells]])
+    xi, x, _ = segment_curve(el, mesh.x[mesh.cell_nodes[segs.cells]], segs.nodes, SEGMENT_POINTS)
     phi = model.space.functions(el.shape_linear(xi))                         # (k, 5, m)
     near = np.argmin(np.abs(op.pts.s[None, :] - SEGMENT_POINTS[:, None]), axis=1)   # (5,)
     k = len(segs)

@@ -11,14 +11,23 @@ For a cut cell (strictly positive and negative node values):
   edges in this cell have opposite signs.  Exactly two are required;
 * the *interface segment* is the quadratic curve (SEG3, nodes at s = -1, +1, 0)
   through P1, P2 and P3, the point of LN = 0 on the perpendicular bisector of
-  P1 P2 (found by Newton's method).  It is oriented with the + side (LN > 0) on
-  its left, so its left normal is the interface normal n (from - to +);
+  P1 P2 (found by Newton's method).  The curve and the bisector are taken in
+  physical coordinates: on a cell whose map is not affine (a distorted
+  quadrangle, a curved edge) a quadratic curve in ``xi`` maps to a curve that
+  bends with the map, so a straight interface would come out wavy and its
+  normal wrong by an amount that does not fall with h.  Points of the segment
+  are therefore placed on the physical curve and pulled back to ``xi``
+  (:func:`segment_curve`); on affine cells this is the same curve.  It is
+  oriented with the + side (LN > 0) on its left, so its left normal is the
+  interface normal n (from - to +);
 * each side is the region between the cell boundary and the segment; it is cut
   into 6-node sub-triangles by a fan from P3 over the boundary path of that
   side.  The edges P3-P1 and P3-P2 of the fan triangles are the two halves of
   the segment (their mid-nodes are the segment's points at s = -1/2 and 1/2), so
   the sub-triangles tile the cell exactly and their interface edges *are* the
-  contact segment.
+  contact segment.  Quadrature maps the sub-triangles' nodes to physical
+  coordinates and integrates over the physical 6-node triangles (their cell-edge
+  sides are exact: a cell edge is quadratic in its own coordinate).
 
 A cell one of whose edges lies on the interface (LN = 0 at its three nodes) is
 not cut; the edge is an interface segment owned by the cell on the - side.
@@ -28,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from xfemcontact.errors import GeometryError
-from xfemcontact.fem.elements import Seg3, element
+from xfemcontact.fem.elements import Seg3, affine_cells, element
 from xfemcontact.xfem.levelset import edge_roots
 
 NEWTON_ITS = 50
@@ -117,8 +126,11 @@ def _perimeter(el, where, xi):
 
 
 # -- the segment ---------------------------------------------------------------
-def segment_midpoints(el, phi_cell, p1, p2, cell_ids):
-    """P3: LN = 0 on the perpendicular bisector of P1 P2 (reference coordinates)."""
+def segment_midpoints(el, phi_cell, xc, p1, p2, cell_ids):
+    """P3: LN = 0 on the perpendicular bisector of P1 P2 in physical coordinates
+    (cells ``xc (k, nn, 2)``); reference coordinates ``(k, 2)``.  Where that point
+    is not found inside the cell (a badly distorted cell), the zero of LN on the
+    reference bisector is kept: still a point of the interface, only less central."""
     mid = 0.5 * (p1 + p2)
     chord = p2 - p1
     d = np.stack([-chord[:, 1], chord[:, 0]], axis=-1)
@@ -134,14 +146,77 @@ def segment_midpoints(el, phi_cell, p1, p2, cell_ids):
         t -= step
         if np.all(np.abs(step) <= 1e-15 * (1 + np.abs(t))):
             break
-    p3 = mid + t[:, None] * d
+    p3_ref = mid + t[:, None] * d
     scale = np.abs(phi_cell).max(axis=1)
-    bad = ~(np.abs(phi_at(el, phi_cell, p3)) <= 1e-10 * scale) | ~el.contains(p3, 1e-9)
+
+    def off(p):
+        return ~(np.abs(phi_at(el, phi_cell, p)) <= 1e-10 * scale) | ~el.contains(p, 1e-9)
+
+    p3 = _physical_bisector(el, phi_cell, xc, p1, p2, p3_ref)
+    p3 = np.where(off(p3)[:, None], p3_ref, p3)
+    bad = off(p3)
     if bad.any():
         c = int(np.nonzero(bad)[0][0])
         raise GeometryError(f"level set: cannot place the interface inside cell {cell_ids[c]} "
                             f"(no zero of LN on the bisector of its intersection points): refine the mesh there")
     return p3
+
+
+def _physical_bisector(el, phi_cell, xc, p1, p2, xi):
+    """Newton from ``xi`` on LN(xi) = 0, (x(xi) - m) . c = 0 with m, c the midpoint
+    and chord of the physical P1 P2.  The reference bisector's point (``xi``) is
+    already the answer on cells whose map is a similarity; elsewhere it is a few
+    steps away."""
+    x12 = el.map_points(xc, np.stack([p1, p2], axis=1))
+    m = 0.5 * (x12[:, 0] + x12[:, 1])
+    c = x12[:, 1] - x12[:, 0]
+    xi = xi.copy()
+    active = np.ones(len(xi), bool)
+    for _ in range(NEWTON_ITS):
+        idx = np.nonzero(active)[0]
+        if len(idx) == 0:
+            break
+        N, dN = el.shape(xi[idx]), el.dshape(xi[idx])
+        f = np.stack([np.einsum("ka,ka->k", N, phi_cell[idx]),
+                      np.einsum("ka,kai,ki->k", N, xc[idx], c[idx]) - np.einsum("ki,ki->k", m[idx], c[idx])], 1)
+        J = np.stack([np.einsum("kaj,ka->kj", dN, phi_cell[idx]),
+                      np.einsum("kaj,kai,ki->kj", dN, xc[idx], c[idx])], axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = np.linalg.solve(J, f[..., None])[..., 0]
+        ok = np.isfinite(step).all(axis=1)
+        step = np.where(ok[:, None], np.clip(step, -0.5, 0.5), 0.0)
+        xi[idx] -= step
+        active[idx[~ok | (np.abs(step).max(axis=1) <= 1e-15 * (1 + np.abs(xi[idx]).max(axis=1)))]] = False
+    return xi
+
+
+def segment_curve(el, xc, nodes, s, cell_ids=None):
+    """Points of segments with reference nodes ``nodes (k, 3, 2)`` at abscissae ``s (p,)``.
+
+    The segment is the quadratic curve through the physical images of its nodes.
+    Returns ``xi (k, p, 2)`` (pulled back by Newton; on affine cells the quadratic
+    curve of the reference nodes), ``x (k, p, 2)`` and ``dx/ds (k, p, 2)`` (m).
+    ``cell_ids (k,)`` name the cells in errors.
+    """
+    s = np.asarray(s, dtype=float)
+    S, dS = Seg3.shape(s), Seg3.dshape(s)                                      # (p, 3)
+    X = el.map_points(xc, nodes)                                               # (k, 3, 2)
+    x = np.einsum("pa,kai->kpi", S, X)
+    # on affine cells the quadratic curve of the reference nodes is the pull-back already
+    live = np.broadcast_to(~affine_cells(el, xc)[:, None], x.shape[:2])
+    xi, failed = el.inverse_map(xc, x, np.einsum("pa,kai->kpi", S, nodes), live)
+    if failed.any():
+        raise not_invertible(failed, cell_ids)
+    return xi, x, np.einsum("pa,kai->kpi", dS, X)
+
+
+def not_invertible(failed, cell_ids=None):
+    """The error for cells ``failed (k,)`` whose map could not be inverted at an interface
+    or sub-cell point (a cell so distorted that Newton's method does not converge)."""
+    c = int(np.nonzero(failed)[0][0])
+    name = f"cell {cell_ids[c]}" if cell_ids is not None else "a cut cell"
+    return GeometryError(f"level set: cannot map the interface into {name} (the cell is too "
+                         f"distorted for its quadratic map to be inverted): refine the mesh there")
 
 
 def orient(el, phi_cell, xi, where):
@@ -177,7 +252,7 @@ def _side_paths(el, t1, t2):
     return between(t1, t2), between(t2, t1)
 
 
-def _ring(el, seg, path_corners, start, end, s_start, s_end):
+def _ring(el, seg, halves, path_corners, start, end, s_start, s_end):
     """The boundary ring of one side: start, corners..., end, P3.
 
     Returns points ``(k, L, 2)``, the mid-point of each ring edge ``(k, L, 2)``
@@ -206,8 +281,8 @@ def _ring(el, seg, path_corners, start, end, s_start, s_end):
         pts[lens, 3] = seg[lens, 2]
     nxt = np.where(np.arange(Lmax)[None, :] + 1 < L[:, None], np.arange(Lmax)[None, :] + 1, 0)
     mids = 0.5 * (pts + np.take_along_axis(pts, nxt[..., None], axis=1))
-    mids[rows, L - 2] = _seg_point(seg, 0.5 * s_end)        # end -> P3
-    mids[rows, L - 1] = _seg_point(seg, 0.5 * s_start)      # P3 -> start
+    mids[rows, L - 2] = halves[:, int(s_end > 0)]           # end -> P3
+    mids[rows, L - 1] = halves[:, int(s_start > 0)]         # P3 -> start
     return pts, mids, L
 
 
@@ -239,26 +314,31 @@ def _fans(pts, mids, L):
     return tri, valid
 
 
+#: fans whose qualities differ by less than this are equally good: the first one in
+#: ring order is taken, so that round-off (a cell numbered from another vertex on
+#: another process) does not change the choice
+FAN_TIE = 1e-9
+
+
 def _best_fan(tri, valid):
-    """Pick, per cell, the fan whose worst sub-triangle is the least distorted."""
+    """Pick, per cell, the fan whose worst sub-triangle is the least distorted
+    (the first in ring order among those within ``FAN_TIE`` of the best)."""
     zeta = TRI6.check_points
     k, C, T = valid.shape
     det = subcell_jacobians(tri.reshape(k, C * T, 6, 2), zeta).reshape(k, C, T, -1)
     area = np.abs(det).max(axis=3)
     quality = np.where(valid, det.min(axis=3) / np.maximum(area, 1e-300), np.inf).min(axis=2)
     quality[~valid.any(axis=2)] = -np.inf
-    best = np.argmax(quality, axis=1)
+    top = quality.max(axis=1, keepdims=True)
+    best = np.argmax(quality >= top - FAN_TIE * np.abs(top), axis=1)
     rows = np.arange(k)
     return tri[rows, best], valid[rows, best], quality[rows, best]
 
 
-def _seg_point(seg, s):
-    """Point of the segments at abscissa ``s`` (scalar)."""
-    return np.einsum("a,kai->ki", Seg3.shape(np.array(s)), seg)
-
-
-def subcells(el, seg, where):
-    """Sub-triangles of both sides of cut cells with segments ``seg (k, 3, 2)``.
+def subcells(el, seg, where, halves):
+    """Sub-triangles of both sides of cut cells with segments ``seg (k, 3, 2)``;
+    ``halves (k, 2, 2)``: the segments' points at s = -1/2 and +1/2 (mid-nodes of
+    the fan triangles' interface edges).
 
     Returns ``(nodes (k, ns, 6, 2), side (k, ns), quality (k,))``.
     """
@@ -267,7 +347,7 @@ def subcells(el, seg, where):
     parts, sides, quality = [], [], []
     for corners, a, b, sa, sb, sgn in ((minus_c, seg[:, 0], seg[:, 1], -1.0, 1.0, -1),
                                        (plus_c, seg[:, 1], seg[:, 0], 1.0, -1.0, 1)):
-        tri, valid = _fans(*_ring(el, seg, corners, a, b, sa, sb))
+        tri, valid = _fans(*_ring(el, seg, halves, corners, a, b, sa, sb))
         nodes, ok, q = _best_fan(tri, valid)
         parts.append(nodes)
         sides.append(np.where(ok, sgn, 0))
@@ -356,9 +436,11 @@ def cut_cells(mesh, phi, side):
                             f"near ({ctr[0]:.6g}, {ctr[1]:.6g}) {count[np.nonzero(count != 2)[0][0]]} times "
                             f"(2 expected): refine the mesh there")
     xi, where = orient(el, phi_cell, xi, where)
-    p3 = segment_midpoints(el, phi_cell, xi[:, 0], xi[:, 1], mesh.cell_ids[cells])
+    xc = mesh.x[mesh.cell_nodes[cells]]
+    p3 = segment_midpoints(el, phi_cell, xc, xi[:, 0], xi[:, 1], mesh.cell_ids[cells])
     seg = np.concatenate([xi, p3[:, None]], axis=1)
-    nodes, sub_side, _ = subcells(el, seg, where)
+    halves = segment_curve(el, xc, seg, [-0.5, 0.5], mesh.cell_ids[cells])[0]
+    nodes, sub_side, _ = subcells(el, seg, where, halves)
     bad = invalid_subcells(nodes, sub_side, 1.0 / el.ref_area_inv)
     return Segments(cells, seg, where), SubCells(cells, nodes, sub_side), bad
 

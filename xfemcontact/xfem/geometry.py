@@ -134,7 +134,8 @@ def _cut_points(mesh, geo):
     support ratios and post-processing all integrate over the same sub-cells)."""
     if geo.cut_points is None:
         sub = geo.subcells
-        geo.cut_points = integration.subcell_points(mesh.element, mesh.x[mesh.cell_nodes[sub.cells]], sub)
+        geo.cut_points = integration.subcell_points(mesh.element, mesh.x[mesh.cell_nodes[sub.cells]], sub,
+                                                    mesh.cell_ids[sub.cells])
     return geo.cut_points
 
 

@@ -8,9 +8,9 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from xfemcontact.fem.elements import Seg3, physical_gradients
+from xfemcontact.fem.elements import affine_cells, physical_gradients
 from xfemcontact.fem.quadrature import gauss_segment, gauss_triangle
-from xfemcontact.xfem.cut import TRI6, subcell_jacobians
+from xfemcontact.xfem.cut import TRI6, not_invertible, segment_curve, subcell_jacobians
 
 #: polynomial degree of the rule on each sub-triangle: exact for the stiffness
 #: of affine parents (TRIA6: 2 + 2 x 2, QUAD8 parallelograms: 4 + 2 x 2 ... + det)
@@ -57,19 +57,34 @@ def _parent_maps(el, xc, xi):
     return N, x, dNdx, det
 
 
-def subcell_points(el, xc, sub):
-    """Quadrature of the sub-triangles ``sub`` (SubCells) of cells with coordinates ``xc``."""
+def subcell_points(el, xc, sub, cell_ids=None):
+    """Quadrature of the sub-triangles ``sub`` (SubCells) of cells with coordinates ``xc``.
+
+    Each sub-triangle is integrated as the physical 6-node triangle through the
+    images of its nodes (see :mod:`cut`); its points are pulled back to the
+    parent's ``xi`` for the shape functions.  On affine cells this is the
+    reference sub-triangle mapped by the parent, point for point.  ``cell_ids (k,)``
+    name the cells in errors.
+    """
     zeta, wz = gauss_triangle(SUBCELL_DEGREE[el.name])
     k, ns = sub.side.shape
-    xi = np.einsum("qa,ksai->ksqi", TRI6.shape(zeta), sub.nodes)            # (k, ns, nq, 2)
-    det_sub = subcell_jacobians(sub.nodes, zeta)                              # (k, ns, nq)
-    w_ref = wz[None, None, :] * det_sub * (sub.side != 0)[..., None]
-    side = np.broadcast_to(sub.side[..., None], w_ref.shape)
-    xi = xi.reshape(k, ns * xi.shape[2], 2).copy()
-    xi[side.reshape(k, ns * len(wz)) == 0] = _centre(el)          # padding: any point inside
-    N, x, dNdx, det = _parent_maps(el, xc, xi)
-    w = w_ref.reshape(k, ns * len(wz)) * det
-    return CellPoints(sub.cells, xi, x, w, side.reshape(k, ns * len(wz)).copy(), dNdx, N)
+    nq = len(wz)
+    X = el.map_points(xc, sub.nodes.reshape(k, ns * 6, 2)).reshape(k, ns, 6, 2)
+    N6 = TRI6.shape(zeta)
+    x = np.einsum("qa,ksai->ksqi", N6, X).reshape(k, ns * nq, 2)
+    xi0 = np.einsum("qa,ksai->ksqi", N6, sub.nodes).reshape(k, ns * nq, 2)
+    live = np.repeat(sub.side != 0, nq, axis=1)                               # (k, ns nq)
+    # on affine cells the composed points xi0 are the pull-backs already
+    xi, failed = el.inverse_map(xc, x, xi0, live & ~affine_cells(el, xc)[:, None])
+    if failed.any():
+        raise not_invertible(failed, cell_ids)
+    xi[~live] = _centre(el)                                                   # padding: any point inside
+    det_x = subcell_jacobians(X, zeta).reshape(k, ns * nq)                     # m^2 per reference area
+    w = np.tile(wz, ns)[None, :] * det_x * live
+    N, xp, dNdx, _ = _parent_maps(el, xc, xi)
+    x = np.where(live[..., None], x, xp)
+    side = np.repeat(sub.side, nq, axis=1)
+    return CellPoints(sub.cells, xi, x, w, side, dNdx, N)
 
 
 def _centre(el):
@@ -97,17 +112,13 @@ class SegmentPoints:
     tangent: np.ndarray  # (k, ng, 2) unit tangent with non-negative x-component
 
 
-def segment_points(el, xc, seg, order):
-    """Gauss-Legendre points (``order`` of them) on segments ``seg`` (cut.Segments)."""
+def segment_points(el, xc, seg, order, cell_ids=None):
+    """Gauss-Legendre points (``order`` of them) on segments ``seg`` (cut.Segments),
+    on the physical quadratic curve of each segment (:func:`cut.segment_curve`)."""
     s, ws = gauss_segment(order)
     s = s[:, 0]
-    xi = np.einsum("qa,kai->kqi", Seg3.shape(s), seg.nodes)
-    dxi = np.einsum("qa,kai->kqi", Seg3.dshape(s), seg.nodes)
-    dN = el.dshape(xi)
-    J = np.einsum("kqaj,kai->kqij", dN, xc)
-    dx = np.einsum("kqij,kqj->kqi", J, dxi)
+    xi, x, dx = segment_curve(el, xc, seg.nodes, s, cell_ids)
     ds = np.linalg.norm(dx, axis=-1)
-    x = np.einsum("kqa,kai->kqi", el.shape(xi), xc)
     n = np.stack([-dx[..., 1], dx[..., 0]], axis=-1) / ds[..., None]
     return SegmentPoints(seg.cells, xi, s, x, ws[None] * ds, n, tangent_of(n))
 
