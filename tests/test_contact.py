@@ -114,15 +114,27 @@ def test_traction_form_needs_one_factorisation(tmp_path):
     assert all(t["ok"] for t in r["tests"])
 
 
+INTERFACE_FIELDS = ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip")
+
+
+def one_and_many(tmp_path, case, np_):
+    """results.json of ``case`` run on one process and on ``np_`` processes."""
+    one, many = tmp_path / "one", tmp_path / "many"
+    assert run_cli(["run", case, "-o", one]).returncode == 0
+    p = run_cli(["run", case, "-o", many], np=np_)
+    assert p.returncode == 0, p.stdout + p.stderr
+    return results(one), results(many)
+
+
+def assert_same_interface(r1, rn, atol, fields=INTERFACE_FIELDS):
+    a, b = r1["interface"], rn["interface"]
+    for k in fields:
+        assert np.allclose(a[k], b[k], rtol=0, atol=atol), k
+
+
 @pytest.mark.mpi
 def test_mpi_same_interface_values(tmp_path):
-    one, two = tmp_path / "one", tmp_path / "two"
-    assert run_cli(["run", CASES / "ssnv509a.toml", "-o", one]).returncode == 0
-    p = run_cli(["run", CASES / "ssnv509a.toml", "-o", two], np=2)
-    assert p.returncode == 0, p.stdout + p.stderr
-    a, b = results(one)["interface"], results(two)["interface"]
-    for k in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip"):
-        assert np.allclose(a[k], b[k], rtol=0, atol=1e-10), k
+    assert_same_interface(*one_and_many(tmp_path, CASES / "ssnv509a.toml", 2), 1e-10)
 
 
 @pytest.mark.mpi
@@ -130,18 +142,11 @@ def test_mpi_interface_pushed_off_edges(tmp_path):
     """The wavy interface touches two mesh edges: the cells along them are cut again
     with the zero line pushed off (a collective retry); 3 processes decide the same
     edges and give the values of one process."""
-    one, three = tmp_path / "one", tmp_path / "three"
-    case = CASES / "validation" / "sinusoid.toml"
-    assert run_cli(["run", case, "-o", one]).returncode == 0
-    p = run_cli(["run", case, "-o", three], np=3)
-    assert p.returncode == 0, p.stdout + p.stderr
-    r1, r3 = results(one), results(three)
+    r1, r3 = one_and_many(tmp_path, CASES / "validation" / "sinusoid.toml", 3)
     assert r1["geometry"]["readjusted"] == r3["geometry"]["readjusted"]
     assert r1["geometry"]["readjusted"]["pushed_off_edges"] == 2
     assert sum(c > 0 for c in r3["geometry"]["cut_cells_per_process"]) >= 2
-    a, b = r1["interface"], r3["interface"]
-    for k in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip"):
-        assert np.allclose(a[k], b[k], rtol=0, atol=1e-10), k
+    assert_same_interface(r1, r3, 1e-10)
 
 
 @pytest.mark.mpi
@@ -150,16 +155,9 @@ def test_mpi_distorted_quadrangles(tmp_path):
     cut cells, numbered from whichever vertex its DMPlex closure starts at; the fan of
     sub-triangles must not depend on that (their quadrature is not exact on such cells,
     so another fan moves the multipliers by about 1e-10)."""
-    one, two = tmp_path / "one", tmp_path / "two"
-    case = CASES / "validation" / "ssnv509_distorted_quad8.toml"
-    assert run_cli(["run", case, "-o", one]).returncode == 0
-    p = run_cli(["run", case, "-o", two], np=2)
-    assert p.returncode == 0, p.stdout + p.stderr
-    r1, r2 = results(one), results(two)
+    r1, r2 = one_and_many(tmp_path, CASES / "validation" / "ssnv509_distorted_quad8.toml", 2)
     assert all(c > 0 for c in r2["geometry"]["cut_cells_per_process"])
-    a, b = r1["interface"], r2["interface"]
-    for k in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip"):
-        assert np.allclose(a[k], b[k], rtol=0, atol=1e-11), k
+    assert_same_interface(r1, r2, 1e-11)
 
 
 @pytest.mark.mpi
@@ -167,11 +165,7 @@ def test_mpi_distorted_quadrangles(tmp_path):
 def test_mpi_three_processes_partition_crosses_interface(tmp_path):
     """SSNV509 b refined on 3 processes: the partition boundaries cut the interface (cut
     cells on several processes) and the interface values are those of one process."""
-    one, three = tmp_path / "one", tmp_path / "three"
-    assert run_cli(["run", CASES / "ssnv509b_refined.toml", "-o", one]).returncode == 0
-    p = run_cli(["run", CASES / "ssnv509b_refined.toml", "-o", three], np=3)
-    assert p.returncode == 0, p.stdout + p.stderr
-    r1, r3 = results(one), results(three)
+    r1, r3 = one_and_many(tmp_path, CASES / "ssnv509b_refined.toml", 3)
     assert r3["processes"] == 3
     per_process = r3["geometry"]["cut_cells_per_process"]
     assert sum(per_process) == r1["geometry"]["cut_cells"] and sum(c > 0 for c in per_process) >= 2
@@ -180,9 +174,7 @@ def test_mpi_three_processes_partition_crosses_interface(tmp_path):
     m1, m3 = r1["multipliers"], r3["multipliers"]
     assert {k: v for k, v in m3.items() if not isinstance(v, float)} == \
         {k: v for k, v in m1.items() if not isinstance(v, float)}
-    a, b = r1["interface"], r3["interface"]
-    for k in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding"):
-        assert np.allclose(a[k], b[k], rtol=0, atol=1e-10), k
+    assert_same_interface(r1, r3, 1e-10, INTERFACE_FIELDS + ("contact", "sliding"))
 
 
 def test_batched_packet_eigenvalues_match_one_by_one():

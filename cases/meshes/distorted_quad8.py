@@ -14,7 +14,9 @@ import pathlib
 import meshio
 import numpy as np
 
-N, SIZE, JITTER, SEED = 20, 10.0, 0.25, 7
+from square import SIZE, quadratic_square_mesh
+
+N, JITTER, SEED = 20, 0.25, 7
 
 
 def distorted_quad8(n=N, jitter=JITTER, seed=SEED):
@@ -27,22 +29,7 @@ def distorted_quad8(n=N, jitter=JITTER, seed=SEED):
     vertices = P.reshape(-1, 2)
     i, j = (a.ravel() for a in np.meshgrid(np.arange(n), np.arange(n), indexing="ij"))
     quads = np.stack([vid[i, j], vid[i + 1, j], vid[i + 1, j + 1], vid[i, j + 1]], axis=-1)
-    edges = np.sort(np.concatenate([quads[:, [0, 1]], quads[:, [1, 2]], quads[:, [2, 3]], quads[:, [3, 0]]]), axis=1)
-    unique, inverse = np.unique(edges, axis=0, return_inverse=True)
-    mids = len(vertices) + inverse.reshape(4, -1).T
-    points = np.r_[vertices, vertices[unique].mean(axis=1)]
-    cells8 = np.c_[quads, mids]
-    lines, tags = [], []
-    for tag, (axis, value) in enumerate([(1, 0.0), (0, SIZE), (1, SIZE), (0, 0.0)], start=1):
-        on = np.all(np.abs(vertices[unique][:, :, axis] - value) < 1e-12, axis=1)
-        lines.append(np.c_[unique[on], len(vertices) + np.nonzero(on)[0]])
-        tags.append(np.full(on.sum(), tag))
-    lines, tags = np.concatenate(lines), np.concatenate(tags)
-    names = {"LIG1": [1, 1], "LIG2": [2, 1], "LIG3": [3, 1], "LIG4": [4, 1], "SURF": [5, 2]}
-    return meshio.Mesh(np.c_[points, np.zeros(len(points))], [("line3", lines), ("quad8", cells8)],
-                       cell_data={"gmsh:physical": [tags, np.full(len(cells8), 5)],
-                                  "gmsh:geometrical": [tags, np.full(len(cells8), 1)]},
-                       field_data={k: np.array(v) for k, v in names.items()})
+    return quadratic_square_mesh(vertices, quads)
 
 
 if __name__ == "__main__":

@@ -13,7 +13,9 @@ import meshio
 import numpy as np
 from scipy.spatial import Delaunay
 
-N, SIZE, JITTER, SEED = 21, 10.0, 0.15, 3
+from square import SIZE, quadratic_square_mesh
+
+N, JITTER, SEED = 21, 0.15, 3
 
 
 def jittered_tria6():
@@ -29,23 +31,7 @@ def jittered_tria6():
     a, b, c = (vertices[tri[:, k]] for k in range(3))
     cw = np.cross(b - a, c - a) < 0
     tri[cw] = tri[cw][:, [0, 2, 1]]
-    edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
-    unique, inverse = np.unique(edges, axis=0, return_inverse=True)
-    mids = len(vertices) + inverse.reshape(3, -1).T
-    points = np.r_[vertices, vertices[unique].mean(axis=1)]
-    cells6 = np.c_[tri, mids]
-    # boundary edges: both ends on one side of the square
-    lines, tags = [], []
-    for tag, (axis, value) in enumerate([(1, 0.0), (0, SIZE), (1, SIZE), (0, 0.0)], start=1):
-        on = np.all(np.abs(vertices[unique][:, :, axis] - value) < 1e-12, axis=1)
-        lines.append(np.c_[unique[on], len(vertices) + np.nonzero(on)[0]])
-        tags.append(np.full(on.sum(), tag))
-    lines, tags = np.concatenate(lines), np.concatenate(tags)
-    names = {"LIG1": [1, 1], "LIG2": [2, 1], "LIG3": [3, 1], "LIG4": [4, 1], "SURF": [5, 2]}
-    return meshio.Mesh(np.c_[points, np.zeros(len(points))], [("line3", lines), ("triangle6", cells6)],
-                       cell_data={"gmsh:physical": [tags, np.full(len(cells6), 5)],
-                                  "gmsh:geometrical": [tags, np.full(len(cells6), 1)]},
-                       field_data={k: np.array(v) for k, v in names.items()})
+    return quadratic_square_mesh(vertices, tri)
 
 
 if __name__ == "__main__":

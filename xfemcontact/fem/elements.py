@@ -55,15 +55,9 @@ class Element:
         Newton on ``sum_a L_a(xi) xv_a = x``: one step for triangles, a few for
         quadrangles.  Points may lie outside the cell (extrapolation).
         """
-        xi = np.zeros(x.shape)
-        for _ in range(iters):
-            r = np.einsum("ka,kai->ki", self.shape_linear(xi), xv) - x
-            J = np.einsum("kai,kaj->kij", xv, self.dshape_linear(xi))
-            step = np.linalg.solve(J, r[..., None])[..., 0]
-            xi -= step
-            if np.abs(step).max(initial=0.0) < tol:
-                break
-        return xi
+        xi, _ = _pull_back(self.shape_linear, self.dshape_linear, xv, x[:, None], np.zeros(x[:, None].shape),
+                           None, iters, tol)
+        return xi[:, 0]
 
     def map_points(self, x, xi):
         """Physical points ``(k, ..., 2)`` (m) of reference points ``xi (k, ..., 2)``
@@ -82,26 +76,7 @@ class Element:
         Returns ``(xi, failed)``: ``failed (k,)`` marks cells with a point that did
         not converge.
         """
-        k, p = pts.shape[:2]
-        xi = np.array(xi0, dtype=float).reshape(k * p, 2)
-        target = pts.reshape(k * p, 2)
-        cell = np.repeat(np.arange(k), p)
-        active = np.ones(k * p, bool) if live is None else np.asarray(live, bool).reshape(-1).copy()
-        floor = 16 * np.finfo(float).eps * np.abs(x).max(axis=(1, 2))         # (k,) round-off of x
-        for _ in range(iters):
-            idx = np.nonzero(active)[0]
-            if len(idx) == 0:
-                break
-            xc = x[cell[idx]]
-            r = np.einsum("ma,mai->mi", self.shape(xi[idx]), xc) - target[idx]
-            J = np.einsum("mai,maj->mij", xc, self.dshape(xi[idx]))
-            step = np.linalg.solve(J, r[..., None])[..., 0]
-            small = (np.abs(step).max(axis=1) <= tol) | (np.abs(r).max(axis=1) <= floor[cell[idx]])
-            xi[idx[~small]] -= step[~small]
-            active[idx[small]] = False
-        failed = np.zeros(k, bool)
-        failed[cell[active]] = True
-        return xi.reshape(k, p, 2), failed
+        return _pull_back(self.shape, self.dshape, x, pts, xi0, live, iters, tol)
 
     @property
     def check_points(self):
@@ -112,6 +87,31 @@ class Element:
     def contains(self, xi, tol=1e-12):
         """Whether reference points ``xi (..., 2)`` lie in the reference domain."""
         raise NotImplementedError
+
+
+def _pull_back(shape, dshape, x, pts, xi0, live, iters, tol):
+    """Newton on ``sum_a shape_a(xi) x_a = pts`` for every point (see
+    :meth:`Element.inverse_map`); ``shape``/``dshape`` give the map's functions."""
+    k, p = pts.shape[:2]
+    xi = np.array(xi0, dtype=float).reshape(k * p, 2)
+    target = pts.reshape(k * p, 2)
+    cell = np.repeat(np.arange(k), p)
+    active = np.ones(k * p, bool) if live is None else np.asarray(live, bool).reshape(-1).copy()
+    floor = 16 * np.finfo(float).eps * np.abs(x).max(axis=(1, 2))         # (k,) round-off of x
+    for _ in range(iters):
+        idx = np.nonzero(active)[0]
+        if len(idx) == 0:
+            break
+        xc = x[cell[idx]]
+        r = np.einsum("ma,mai->mi", shape(xi[idx]), xc) - target[idx]
+        J = np.einsum("mai,maj->mij", xc, dshape(xi[idx]))
+        step = np.linalg.solve(J, r[..., None])[..., 0]
+        small = (np.abs(step).max(axis=1) <= tol) | (np.abs(r).max(axis=1) <= floor[cell[idx]])
+        xi[idx[~small]] -= step[~small]
+        active[idx[small]] = False
+    failed = np.zeros(k, bool)
+    failed[cell[active]] = True
+    return xi.reshape(k, p, 2), failed
 
 
 class Tria6(Element):

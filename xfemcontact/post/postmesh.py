@@ -122,7 +122,7 @@ def _subcell_pieces(model, xl):
     xi = sub.nodes[live]                                                      # (m, 6, 2)
     side = sub.side[live]
     xc = mesh.x[mesh.cell_nodes[cells]]
-    x = np.einsum("mpa,mai->mpi", el.shape(xi), xc)
+    x = el.map_points(xc, xi)
     pts, = xgeo.cell_points(mesh, geo, sub.cells)                            # cut cells only: one batch
     ue = xl[bulk.enriched_batch(mesh, layout, pts.cells).local]
     e = elasticity.strain(enriched_gradients(mesh, geo, pts), ue)             # (k, ns nq, 3)
