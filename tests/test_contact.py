@@ -53,7 +53,7 @@ def test_interface_table_layout(tmp_path):
 @pytest.mark.parametrize("name", ["opening", "slip_straight", "slip_straight_tria6", "low_friction",
                                   "frictionless", "tangent_circle", "tangent_circle_tria6",
                                   "ellipse_tria6", "inclined_line_tria6", "sinusoid",
-                                  "ssnv509_jittered", "ssnv509_distorted_quad8"])
+                                  "ssnv509_jittered", "ssnv509_distorted_quad8", "inclusion_biaxial"])
 def test_beyond_stick(tmp_path, name):
     out = tmp_path / name
     p = run_cli(["run", CASES / "validation" / f"{name}.toml", "-o", out])
@@ -130,6 +130,22 @@ def assert_same_interface(r1, rn, atol, fields=INTERFACE_FIELDS):
     a, b = r1["interface"], rn["interface"]
     for k in fields:
         assert np.allclose(a[k], b[k], rtol=0, atol=atol), k
+
+
+@pytest.mark.mpi
+def test_stick_predictor_holds_a_floating_inclusion(tmp_path):
+    """An inclusion held only by contact and friction, no SEUIL_INIT: the first threshold
+    iteration is frictionless (its rotation undetermined); the stick predictor lands on
+    the stick solution, Newton with the real law starts converged, and 1 and 2
+    processes agree."""
+    r1, r2 = one_and_many(tmp_path, CASES / "validation" / "inclusion_biaxial.toml", 2)
+    for r in (r1, r2):
+        assert r["converged"] and all(t["ok"] for t in r["tests"]), r["tests"]
+        it = r["iterations"]
+        assert it["stick_predictor_steps"] == 1
+        assert it["newton_per_solve"][1] == 0
+        assert not any(r["interface"]["sliding"])
+    assert_same_interface(r1, r2, 1e-9)         # LAGS_C is about 100 Pa here
 
 
 @pytest.mark.mpi

@@ -50,8 +50,11 @@ class Law:
     rho_T: float = 1.0     # traction form: fixed augmentation, Pa/m
 
 
-def point_terms(law, chi, s, g, ut, lam, Lam):
+def point_terms(law, chi, s, g, ut, lam, Lam, stick=None):
     """Coefficients of the residual and tangent at every point (arrays of one shape).
+
+    ``stick``: optional boolean mask of points held in the stick branch whatever
+    their trial value (the stick predictor, see :mod:`xfemcontact.solver.loops`).
 
     Returns a dict of arrays:
     ``rg`` (coefficient of dg), ``rl`` (of dlam), ``rt`` (of dut), ``rL`` (of dLam),
@@ -69,10 +72,11 @@ def point_terms(law, chi, s, g, ut, lam, Lam):
     }
     musig = mu * s
     active = on & law.friction & (np.abs(musig) > 0)
+    held = np.zeros(np.shape(g), bool) if stick is None else stick
     if law.unknown == "traction":
-        return _traction_terms(law, t, active, musig, ut, Lam)
+        return _traction_terms(law, t, active, musig, ut, Lam, held)
     gt = Lam - rho_t * ut
-    stick = np.abs(gt) <= 1.0 + STICK_TOL
+    stick = (np.abs(gt) <= 1.0 + STICK_TOL) | held
     p = np.where(stick, gt, np.sign(gt))
     kn = np.where(stick, 1.0, 0.0)
     t["rt"] = np.where(active, musig * p, 0.0)
@@ -84,12 +88,12 @@ def point_terms(law, chi, s, g, ut, lam, Lam):
     return t
 
 
-def _traction_terms(law, t, active, musig, ut, T):
+def _traction_terms(law, t, active, musig, ut, T, held):
     """Friction terms with the tangential traction T (Pa) as unknown."""
     rho = law.rho_T
     bound = np.abs(musig)
     trial = T + rho * ut
-    stick = np.abs(trial) <= bound * (1.0 + STICK_TOL)
+    stick = (np.abs(trial) <= bound * (1.0 + STICK_TOL)) | held
     P = np.where(stick, trial, bound * np.sign(trial))
     kn = np.where(stick, 1.0, 0.0)
     t["rt"] = np.where(active, P, 0.0)

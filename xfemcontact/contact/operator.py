@@ -39,6 +39,7 @@ class InterfaceOperator:
         k, ng = self.pts.w.shape
         self.chi = np.full((k, ng), 1 if contact_init else 0, dtype=np.int64)
         self.s = np.full((k, ng), float(seuil_init) if seuil_init is not None else 0.0)
+        self.stick = None       # points held in stick (the stick predictor), or None
 
     # -- gathering ----------------------------------------------------------
     def _scatter_setup(self):
@@ -84,7 +85,7 @@ class InterfaceOperator:
     # -- residual and tangent -------------------------------------------------
     def terms(self, x):
         g, ut, lam, Lam = self.point_fields(self.element_values(x))
-        return claw.point_terms(self.law, self.chi, self.s, g, ut, lam, Lam)
+        return claw.point_terms(self.law, self.chi, self.s, g, ut, lam, Lam, self.stick)
 
     def add_residual(self, x, f):
         t = self.terms(x)
@@ -147,8 +148,12 @@ class InterfaceOperator:
         return self.mesh.comm.tompi4py().allreduce(changed)
 
     def update_threshold(self, x):
+        """s <- LAGS_C.  Returns the mask ``(k, ng)`` of points in contact whose friction
+        this update switches on (threshold zero before, not now)."""
         g, ut, lam, Lam = self.point_fields(self.element_values(x))
+        before = self.s
         self.s = claw.threshold(lam)
+        return (self.chi == 1) & (before == 0) & (self.s != 0)
 
     def counts(self):
         """Points in contact and in slip (all processes)."""

@@ -43,6 +43,7 @@ def iterations(model):
         return {"newton": model.snes.getIterationNumber() if model.snes else 0}
     return {"newton": int(sum(loops.newton)), "newton_per_solve": list(loops.newton),
             "contact": list(loops.contact), "friction": int(loops.friction),
+            "stick_predictor_steps": int(sum(loops.newton_predictor)),
             "status_changes": list(loops.status_changes),
             "threshold_changes": [float(c) for c in loops.threshold_changes]}
 

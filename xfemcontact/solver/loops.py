@@ -15,6 +15,15 @@ Innermost first:
   ITER_FROT_MAXI (``-friction_snes_max_it``); at least two iterations run
   (the first reference is zero).  Its "norm" is that relative change.
 
+Stick predictor: where a threshold update switches friction on (the threshold
+was zero: no SEUIL_INIT, or a point that came into contact), the tangential
+jump of the previous solution is no friction answer -- it may even hold an
+arbitrary rigid rotation of an inclusion that only friction holds, on which
+a slipping interface has no stiffness and Newton stalls.  One Newton step is
+then taken with those points held in the stick branch (a linear problem,
+solved exactly), and Newton with the real law starts from there.  A loop
+that sticks everywhere converges at that step without another factorisation.
+
 ``-contact_snes_monitor`` / ``-friction_snes_monitor`` print them.
 """
 import numpy as np
@@ -31,6 +40,7 @@ class LoopRecord:
         self.newton = []           # Newton iterations of every Newton solve
         self.contact = []          # status iterations of every contact loop
         self.friction = 0
+        self.newton_predictor = []  # Newton iterations (0 or 1) of every stick predictor
         self.status_changes = []   # changes after every Newton solve
         self.threshold_changes = []
         self.warnings = []
@@ -100,7 +110,9 @@ class FrictionLoop:
         previous = None
         for k in range(1, max_it + 1):
             if k > 1:
-                model.interface.update_threshold(x)
+                switched_on = model.interface.update_threshold(x)
+                if model.comm.tompi4py().allreduce(int(switched_on.sum())):
+                    self._stick_predictor(switched_on, x)
             self.contact.solve(None, x)
             if self.contact.getConvergedReason() <= 0:
                 snes.setIterationNumber(k)
@@ -119,6 +131,19 @@ class FrictionLoop:
                 return
             previous = lam
         snes.setConvergedReason(Reason.DIVERGED_MAX_IT)
+
+    def _stick_predictor(self, held, x):
+        """One Newton step with the points ``held`` in the stick branch."""
+        op, newton = self.model.interface, self.model.snes
+        max_it = newton.getTolerances()[3]
+        op.stick = held
+        newton.setTolerances(max_it=1)
+        try:
+            newton.solve(None, x)
+            self.record.newton_predictor.append(newton.getIterationNumber())
+        finally:
+            newton.setTolerances(max_it=max_it)
+            op.stick = None
 
 
 def _relative_change(comm, lam, previous):
