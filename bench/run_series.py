@@ -3,6 +3,12 @@
     python bench/run_series.py                       # N = 20 ... 320, QUAD8 + TRIA6, 1 and 2 processes
     python bench/run_series.py --sizes 640 --procs 1 # one more point
     python bench/run_series.py --extra -xfc_friction_unknown traction
+    python bench/run_series.py --sizes 320 --repeat 5   # 5 runs per point, interleaved
+
+With ``--repeat K`` every point is run K times, the process counts taking turns
+(1, 2, 1, 2, ...) so that a slow spell of the machine hits both; each row is the
+run of median wall time, with the spread (min - max) and, per mesh, the speed-up
+of two processes over one from the medians.
 
 Each run is the command line on a generated case (plots off), so the figures are
 what a user gets.  Per run: dofs by kind, cut cells, loop iterations, wall time
@@ -139,6 +145,7 @@ def main():
     ap.add_argument("--sizes", nargs="+", type=int, default=[20, 40, 80, 160, 320])
     ap.add_argument("--procs", nargs="+", type=int, default=[1, 2])
     ap.add_argument("--name", default="series")
+    ap.add_argument("--repeat", type=int, default=1, help="runs per point (median reported)")
     ap.add_argument("--extra", nargs=argparse.REMAINDER, default=[], help="PETSc options for every run")
     args = ap.parse_args()
     OUT.mkdir(parents=True, exist_ok=True)
@@ -147,18 +154,54 @@ def main():
     rows = []
     for cell in args.cells:
         for n in args.sizes:
-            for procs in args.procs:
-                row = run_one(cell, n, procs, args.extra, work)
-                rows.append(row)
-                brief = "error" if "error" in row else (
-                    f"{row['dofs']['total']} dofs, wall {row['wall']:.2f} s, factorisations "
-                    f"{row['factorisations']}, other {100 * row['other_share']:.0f} %, "
-                    f"peak {max(row['peak_mb']):.0f} MB/proc, tests {'OK' if row['ok'] else 'NOOK'}")
-                print(f"{cell} N={n} P={procs}: {brief}", flush=True)
+            runs = {procs: [] for procs in args.procs}
+            for _ in range(args.repeat):
+                for procs in args.procs:
+                    row = run_one(cell, n, procs, args.extra, work)
+                    runs[procs].append(row)
+                    print(f"{cell} N={n} P={procs}: {brief(row)}", flush=True)
+            rows += [median_row(runs[procs]) for procs in args.procs]
     (OUT / f"{args.name}.json").write_text(json.dumps(rows, indent=1))
-    (OUT / f"{args.name}.md").write_text(markdown(rows))
+    (OUT / f"{args.name}.md").write_text(markdown(rows) + speedups(rows))
     plot(rows, OUT / f"{args.name}.png")
-    print(markdown(rows))
+    print(markdown(rows) + speedups(rows))
+
+
+def brief(row):
+    if "error" in row:
+        return "error"
+    return (f"{row['dofs']['total']} dofs, wall {row['wall']:.2f} s, factorisations "
+            f"{row['factorisations']}, other {100 * row['other_share']:.0f} %, "
+            f"peak {max(row['peak_mb']):.0f} MB/proc, tests {'OK' if row['ok'] else 'NOOK'}")
+
+
+def median_row(runs):
+    """The run of median wall time (the lower middle one for an even count), with the
+    walls of all runs in ``walls``."""
+    good = [r for r in runs if "error" not in r]
+    if not good:
+        return runs[0]
+    good.sort(key=lambda r: r["wall"])
+    row = dict(good[(len(good) - 1) // 2])
+    row["walls"] = [r["wall"] for r in good]
+    return row
+
+
+def speedups(rows):
+    """Markdown lines: wall time of one process over two, per mesh, from the medians."""
+    lines = []
+    for r1 in rows:
+        r2 = next((r for r in rows if r["cell"] == r1["cell"] and r["n"] == r1["n"] and r["procs"] == 2), None)
+        if r1["procs"] != 1 or r2 is None or "error" in r1 or "error" in r2:
+            continue
+        spread = ""
+        if len(r1.get("walls", [])) > 1:
+            spread = (f" (runs: 1 process {min(r1['walls']):.1f} - {max(r1['walls']):.1f} s, "
+                      f"2 processes {min(r2['walls']):.1f} - {max(r2['walls']):.1f} s, "
+                      f"{len(r1['walls'])} each)")
+        lines.append(f"- {r1['cell']} N = {r1['n']}: 2 processes {r1['wall'] / r2['wall']:.2f} times "
+                     f"faster than 1 (median walls {r1['wall']:.2f} / {r2['wall']:.2f} s){spread}")
+    return ("\n" + "\n".join(lines) + "\n") if lines else ""
 
 
 if __name__ == "__main__":

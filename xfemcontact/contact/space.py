@@ -42,7 +42,9 @@ partition:
    lam_a = lam_b + (x_a - x_b) . g, g the multiplier's gradient read from the
    neighbouring crossed edges: the weak mode goes, linear fields stay exact,
    where a merge would force zero variation along the edge.  The reported
-   smallest eigenvalue is that of the packet with the merge.
+   smallest eigenvalue is that of the packet with the merge.  Neighbouring
+   ties (a flat stretch) may take each other's roots: every tie is finally
+   written in free carriers.
 
 Merged vertices share the dof held by the representative (the smallest input
 node index of the class).
@@ -201,6 +203,11 @@ def _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts):
             roots += [p, q]
             wts += [wk, -wk]
         tied[a] = (np.array(roots), np.array(wts))
+    # A tie's roots were free when it was made, but a later tie may take one of them
+    # (neighbouring edges of a flat stretch): express every tie in free carriers,
+    # latest first, so that each substitution uses ties already resolved.
+    for a in reversed(list(tied)):
+        tied[a] = _substitute(*tied[a], tied)
     strong = strong.copy()
     for a in tied:
         strong[pos[a]] = False
