@@ -54,13 +54,39 @@ def test_interface_table_layout(tmp_path):
                                   "frictionless", "tangent_circle", "tangent_circle_tria6",
                                   "ellipse_tria6", "inclined_line_tria6", "sinusoid",
                                   "ssnv509_jittered", "ssnv509_distorted_quad8", "inclusion_biaxial",
-                                  "flat_arc"])
+                                  "flat_arc", "column_on_incline", "column_on_incline_tria6", "inclined_line"])
 def test_beyond_stick(tmp_path, name):
     out = tmp_path / name
     p = run_cli(["run", CASES / "validation" / f"{name}.toml", "-o", out])
     assert p.returncode == 0, p.stdout + p.stderr
     r = results(out)
     assert r["converged"] and all(t["ok"] for t in r["tests"])
+
+
+@pytest.mark.parametrize("name", ["inclined_line", "column_on_incline"])
+def test_straight_interfaces_on_quadrangles_have_unique_multipliers(tmp_path, name):
+    """The kernel of a straight interface across quadrangles spans rows of cut cells (every
+    packet alone is regular): with null-pivot detection on, MUMPS finds none (20 and 1
+    before the kernels were looked for across packets)."""
+    out = tmp_path / name
+    p = run_cli(["run", CASES / "validation" / f"{name}.toml", "-o", out, "-mat_mumps_icntl_24", "1"])
+    assert p.returncode == 0, p.stdout + p.stderr
+    r = results(out)
+    assert r["linear_solver"]["mumps"]["null_pivots"] == 0
+    assert r["multipliers"]["ties"] >= 1
+
+
+def test_frictionless_start_without_equilibrium_restarts_sticking(tmp_path):
+    """A block held only by friction, no SEUIL_INIT: code_aster's frictionless first
+    iteration has no solution; it is redone sticking, with a warning, and the closed
+    form is reached."""
+    out = tmp_path / "col"
+    p = run_cli(["run", CASES / "validation" / "column_on_incline_tria6.toml", "-o", out])
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert "held only by friction" in p.stderr + p.stdout
+    r = results(out)
+    assert r["converged"] and all(t["ok"] for t in r["tests"])
+    assert r["iterations"]["stick_predictor_steps"] == 1
 
 
 def test_chained_ties_keep_linear_fields(tmp_path):

@@ -40,6 +40,9 @@ class InterfaceOperator:
         self.chi = np.full((k, ng), 1 if contact_init else 0, dtype=np.int64)
         self.s = np.full((k, ng), float(seuil_init) if seuil_init is not None else 0.0)
         self.stick = None       # points held in stick (the stick predictor), or None
+        # friction without bound (every point in contact sticks): the fallback start
+        # when the frictionless one has no solution, see xfemcontact.solver.loops
+        self.unbounded = False
 
     # -- gathering ----------------------------------------------------------
     def _scatter_setup(self):
@@ -85,7 +88,12 @@ class InterfaceOperator:
     # -- residual and tangent -------------------------------------------------
     def terms(self, x):
         g, ut, lam, Lam = self.point_fields(self.element_values(x))
-        return claw.point_terms(self.law, self.chi, self.s, g, ut, lam, Lam, self.stick)
+        s, stick = self.s, self.stick
+        if self.unbounded:
+            # held in stick, the solution does not depend on s; mu s = -1 Pa makes
+            # LAGS_F1 the tangential traction in Pa meanwhile
+            s, stick = np.full(s.shape, -1.0 / self.law.mu), np.ones(s.shape, bool)
+        return claw.point_terms(self.law, self.chi, s, g, ut, lam, Lam, stick)
 
     def add_residual(self, x, f):
         t = self.terms(x)
@@ -149,11 +157,13 @@ class InterfaceOperator:
 
     def update_threshold(self, x):
         """s <- LAGS_C.  Returns the mask ``(k, ng)`` of points in contact whose friction
-        this update switches on (threshold zero before, not now)."""
+        this update switches on or bounds for the first time (threshold zero or
+        unbounded before, not zero now)."""
         g, ut, lam, Lam = self.point_fields(self.element_values(x))
-        before = self.s
+        fresh = (self.s == 0) | self.unbounded
+        self.unbounded = False
         self.s = claw.threshold(lam)
-        return (self.chi == 1) & (before == 0) & (self.s != 0)
+        return (self.chi == 1) & fresh & (self.s != 0)
 
     def counts(self):
         """Points in contact and in slip (all processes)."""

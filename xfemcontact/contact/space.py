@@ -384,5 +384,54 @@ def _tie_kernels(space, mesh, edges, r, lin_at_points, weights):
             lam = _smallest_scaled_eigenvalue((P.T @ Gp @ P)[used][:, used])
         smallest = min(smallest, lam)
         root[members] = members[classes]       # class label = its smallest member
+    smallest = min(smallest, _tie_global_kernels(space, G, e, ia, ib, centrality, root))
     space.smallest = smallest
     space.rep = ids[root]
+
+
+def _tie_global_kernels(space, G, e, ia, ib, centrality, root):
+    """Merge crossed edges until no set of carriers sharing cut cells has a kernel.
+
+    On quadrangles a packet is often a single crossed edge, but the kernel of a
+    straight interface that is not parallel to the mesh lines (the Q1
+    interpolant of its signed distance) spans the vertices of whole rows of cut
+    cells: every packet alone is fine, together they are singular.  The
+    components of the Gram matrix's graph (carriers whose traces meet in a cut
+    cell), with the packet ties in ``root`` applied, are checked; while one has
+    a scaled eigenvalue below ``SINGULAR`` the ends of its crossed edge nearest
+    the middle (then the least ids) are merged.  Updates ``root`` in place;
+    returns the smallest eigenvalue seen after the merges.
+    """
+    ids = space.ids
+    ncomp, comp = connected_components(G != 0, directed=False)
+    smallest = np.inf
+    for c in range(ncomp):
+        members = np.nonzero(comp == c)[0]
+        if len(members) < 2:
+            continue
+        Gm = G[members][:, members]
+        lam = _merged_eigenvalue(Gm, members, root)
+        cand = np.nonzero(comp[ia] == c)[0]
+        cand = cand[np.lexsort((e[cand, 1], e[cand, 0], centrality[cand]))]
+        first = lam
+        for j in cand:
+            if lam >= SINGULAR:
+                break
+            a, b = root[ia[j]], root[ib[j]]
+            if a == b:
+                continue
+            root[root == max(a, b)] = min(a, b)
+            space.n_ties += 1
+            space.tie_edges.append((int(ids[ia[j]]), int(ids[ib[j]]), float(first)))
+            lam = _merged_eigenvalue(Gm, members, root)
+        smallest = min(smallest, lam)
+    return smallest
+
+
+def _merged_eigenvalue(Gm, members, root):
+    """Smallest scaled eigenvalue of ``Gm`` (the Gram block of ``members``) with the
+    classes of ``root`` merged."""
+    _, cls = np.unique(root[members], return_inverse=True)
+    P = sp.csr_matrix((np.ones(len(members)), (np.arange(len(members)), cls)),
+                      shape=(len(members), cls.max() + 1))
+    return _smallest_scaled_eigenvalue((P.T @ Gm @ P).tocsr())

@@ -15,11 +15,21 @@ Innermost first:
   ITER_FROT_MAXI (``-friction_snes_max_it``); at least two iterations run
   (the first reference is zero).  Its "norm" is that relative change.
 
-Stick predictor: where a threshold update switches friction on (the threshold
-was zero: no SEUIL_INIT, or a point that came into contact), the tangential
-jump of the previous solution is no friction answer -- it may even hold an
-arbitrary rigid rotation of an inclusion that only friction holds, on which
-a slipping interface has no stiffness and Newton stalls.  One Newton step is
+Without SEUIL_INIT (or with 0) the first threshold iteration is frictionless,
+as in code_aster.  With statuses frozen that is a linear problem, so its
+Newton converges in a step or two -- unless a part is held only by friction
+(a block on an incline under its own weight): the frictionless problem then
+has no solution.  After ``FREE_START_ITERATIONS`` Newton iterations without
+convergence the iteration is restarted from the initial state with friction
+unbounded (every point in contact sticks, what a large |SEUIL_INIT| does),
+and a warning says so.
+
+Stick predictor: where a threshold update bounds friction for the first time
+(the threshold was zero or unbounded: no SEUIL_INIT, SEUIL_INIT = 0, or a
+point that came into contact), the tangential jump and friction dof of the
+previous solution are no answer of the bounded law -- a frictionless start
+may even leave an arbitrary rigid rotation of an inclusion, on which a
+slipping interface has no stiffness and Newton stalls.  One Newton step is
 then taken with those points held in the stick branch (a linear problem,
 solved exactly), and Newton with the real law starts from there.  A loop
 that sticks everywhere converges at that step without another factorisation.
@@ -31,6 +41,10 @@ import numpy as np
 from xfemcontact._petsc import PETSc
 
 Reason = PETSc.SNES.ConvergedReason
+
+#: Newton iterations allowed to the frictionless first threshold iteration (a
+#: linear problem once statuses are frozen) before it is taken as having no solution
+FREE_START_ITERATIONS = 3
 
 
 class LoopRecord:
@@ -113,7 +127,9 @@ class FrictionLoop:
                 switched_on = model.interface.update_threshold(x)
                 if model.comm.tompi4py().allreduce(int(switched_on.sum())):
                     self._stick_predictor(switched_on, x)
-            self.contact.solve(None, x)
+                self.contact.solve(None, x)
+            else:
+                self._first_iteration(x)
             if self.contact.getConvergedReason() <= 0:
                 snes.setIterationNumber(k)
                 snes.setConvergedReason(Reason.DIVERGED_INNER)
@@ -131,6 +147,32 @@ class FrictionLoop:
                 return
             previous = lam
         snes.setConvergedReason(Reason.DIVERGED_MAX_IT)
+
+    def _first_iteration(self, x):
+        """The contact loop with the initial thresholds; a frictionless start that
+        finds no equilibrium is redone with friction unbounded (module docstring)."""
+        op, newton = self.model.interface, self.model.snes
+        mpi = self.model.comm.tompi4py()
+        if mpi.allreduce(int(np.count_nonzero(op.s))):
+            self.contact.solve(None, x)
+            return
+        x0, chi0 = x.copy(), op.chi.copy()
+        max_it = newton.getTolerances()[3]
+        newton.setTolerances(max_it=min(max_it, FREE_START_ITERATIONS))
+        try:
+            self.contact.solve(None, x)
+        finally:
+            newton.setTolerances(max_it=max_it)
+        if self.contact.getConvergedReason() > 0:
+            return
+        x0.copy(x)
+        op.chi = chi0
+        op.unbounded = True
+        self.record.warnings.append(
+            "the frictionless start (no SEUIL_INIT) has no equilibrium: a part is held only by "
+            "friction; the first threshold iteration was redone with every point in contact "
+            "sticking (give seuil_init, the expected contact pressure, to start bounded)")
+        self.contact.solve(None, x)
 
     def _stick_predictor(self, held, x):
         """One Newton step with the points ``held`` in the stick branch."""
