@@ -169,7 +169,7 @@ class FrictionLoop:
         op.chi = chi0
         op.unbounded = True
         self.record.warnings.append(
-            "the frictionless start (no SEUIL_INIT) has no equilibrium: a part is held only by "
+            "the frictionless start (SEUIL_INIT absent or 0) has no equilibrium: a part is held only by "
             "friction; the first threshold iteration was redone with every point in contact "
             "sticking (give seuil_init, the expected contact pressure, to start bounded)")
         self.contact.solve(None, x)
