@@ -3,7 +3,9 @@
 import numpy as np
 import pytest
 
-from conftest import CASES, results, run_cli
+from conftest import CASES, ROOT, results, run_cli
+
+DATA_CASES = ROOT / "tests" / "data" / "cases"
 
 SSNV509 = ["ssnv509a", "ssnv509a_med", "ssnv509b", "ssnv509b_refined"]
 
@@ -188,6 +190,20 @@ def test_stick_predictor_holds_a_floating_inclusion(tmp_path):
         assert it["newton_per_solve"][1] == 0
         assert not any(r["interface"]["sliding"])
     assert_same_interface(r1, r2, 1e-9)         # LAGS_C is about 100 Pa here
+
+
+@pytest.mark.mpi
+def test_failed_full_step_newton_is_redone_with_a_line_search(tmp_path):
+    """A nearly free inclusion that slips almost everywhere: full-step Newton stalls in
+    the second threshold iteration, the retry with a backtracking line search converges,
+    with a warning, on 1 and 2 processes alike."""
+    r1, r2 = one_and_many(tmp_path, DATA_CASES / "inclusion_sliding.toml", 2)
+    for r in (r1, r2):
+        assert r["converged"]
+        assert r["iterations"]["line_search_retries"] == 1
+        assert any("line search" in w for w in r["warnings"])
+        assert sum(r["interface"]["sliding"]) > 0.8 * len(r["interface"]["sliding"])
+    assert_same_interface(r1, r2, 1e-8)
 
 
 @pytest.mark.mpi

@@ -44,6 +44,7 @@ def iterations(model):
     return {"newton": int(sum(loops.newton)), "newton_per_solve": list(loops.newton),
             "contact": list(loops.contact), "friction": int(loops.friction),
             "stick_predictor_steps": int(sum(loops.newton_predictor)),
+            "line_search_retries": int(loops.line_search_retries),
             "status_changes": list(loops.status_changes),
             "threshold_changes": [float(c) for c in loops.threshold_changes]}
 

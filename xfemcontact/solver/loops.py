@@ -24,6 +24,13 @@ convergence the iteration is restarted from the initial state with friction
 unbounded (every point in contact sticks, what a large |SEUIL_INIT| does),
 and a warning says so.
 
+Line search on failure: Newton takes full steps, as code_aster does (a
+backtracking line search stalls on sliding interfaces whose statuses must
+flip all at once).  But full steps can wander off on a nearly free body
+whose interface slips almost everywhere; a Newton solve that fails with
+friction on is therefore redone once, from the same start, with
+``-snes_linesearch_type bt`` (unless the user chose a line search).
+
 Stick predictor: where a threshold update bounds friction for the first time
 (the threshold was zero or unbounded: no SEUIL_INIT, SEUIL_INIT = 0, or a
 point that came into contact), the tangential jump and friction dof of the
@@ -55,6 +62,7 @@ class LoopRecord:
         self.contact = []          # status iterations of every contact loop
         self.friction = 0
         self.newton_predictor = []  # Newton iterations (0 or 1) of every stick predictor
+        self.line_search_retries = 0  # full-step Newton solves redone with a line search
         self.status_changes = []   # changes after every Newton solve
         self.threshold_changes = []
         self.warnings = []
@@ -74,6 +82,7 @@ class ContactLoop:
 
     def __init__(self, model, newton, record):
         self.model, self.newton, self.record = model, newton, record
+        self.retry = True            # off while the frictionless start is being tried
 
     def view(self, snes, viewer):
         viewer.printfASCII("contact status loop (code_aster ITER_CONT_MAXI)\n")
@@ -82,8 +91,7 @@ class ContactLoop:
         op, newton = self.model.interface, self.newton
         max_it = snes.getTolerances()[3]
         for k in range(1, max_it + 1):
-            newton.solve(None, x)
-            self.record.newton.append(newton.getIterationNumber())
+            self._newton(x)
             if newton.getConvergedReason() <= 0:
                 snes.setIterationNumber(k)
                 snes.setConvergedReason(Reason.DIVERGED_INNER)
@@ -107,6 +115,40 @@ class ContactLoop:
             snes.setConvergedReason(Reason.CONVERGED_ITS)
         else:
             snes.setConvergedReason(Reason.DIVERGED_MAX_IT)
+
+    def _newton(self, x):
+        """Newton from ``x``.  With friction, a full-step Newton that fails is redone once
+        from the same start with a backtracking line search (module docstring)."""
+        newton = self.newton
+        retry = self.model.law.friction and self.retry
+        start = x.copy() if retry else None
+        newton.solve(None, x)
+        self.record.newton.append(newton.getIterationNumber())
+        if newton.getConvergedReason() > 0 or start is None:
+            return
+        opts, key = PETSc.Options(), newton.getOptionsPrefix() + "snes_linesearch_type"
+        kind = opts.getString(key, "basic")
+        if kind != "basic":              # the user chose a line search: theirs stands
+            return
+        start.copy(x)
+        _line_search(newton, opts, key, "bt")
+        try:
+            newton.solve(None, x)
+        finally:
+            _line_search(newton, opts, key, kind)
+        self.record.newton.append(newton.getIterationNumber())
+        if newton.getConvergedReason() > 0 and not self.record.line_search_retries:
+            self.record.warnings.append(
+                "Newton with full steps (code_aster's) did not converge in a threshold iteration; "
+                "it was redone from the same start with a backtracking line search "
+                "(-snes_linesearch_type bt)")
+        self.record.line_search_retries += 1
+
+
+def _line_search(snes, opts, key, kind):
+    """Set the line search of ``snes`` (petsc4py 3.18 has no SNESLineSearch object)."""
+    opts.setValue(key, kind)
+    snes.setFromOptions()
 
 
 class FrictionLoop:
@@ -159,10 +201,13 @@ class FrictionLoop:
         x0, chi0 = x.copy(), op.chi.copy()
         max_it = newton.getTolerances()[3]
         newton.setTolerances(max_it=min(max_it, FREE_START_ITERATIONS))
+        loop = self.contact.getPythonContext()
+        loop.retry = False
         try:
             self.contact.solve(None, x)
         finally:
             newton.setTolerances(max_it=max_it)
+            loop.retry = True
         if self.contact.getConvergedReason() > 0:
             return
         x0.copy(x)
