@@ -206,6 +206,22 @@ def test_failed_full_step_newton_is_redone_with_a_line_search(tmp_path):
     assert_same_interface(r1, r2, 1e-8)
 
 
+def test_newton_cycling_at_the_stick_slip_limit_ends_with_frozen_statuses(tmp_path):
+    """Partial slip on an arc: Newton cycles on points at the stick/slip limit with full
+    steps and with a line search; with the friction statuses frozen in Newton and
+    updated between solves the loops converge, and |LAGS_F1| <= 1 holds."""
+    out = tmp_path / "arc"
+    p = run_cli(["run", DATA_CASES / "arc_partial_slip_tria6.toml", "-o", out])
+    assert p.returncode == 0, p.stdout + p.stderr
+    r = results(out)
+    assert r["converged"]
+    assert r["iterations"]["frozen_status_solves"] > 0
+    it = r["interface"]
+    assert 0 < sum(it["sliding"]) < len(it["sliding"])
+    sliding = np.array(it["sliding"], bool)
+    assert np.allclose(np.abs(np.array(it["LAGS_F1"])[sliding]), 1.0, atol=0.05)
+
+
 @pytest.mark.mpi
 def test_mpi_same_interface_values(tmp_path):
     assert_same_interface(*one_and_many(tmp_path, CASES / "ssnv509a.toml", 2), 1e-10)

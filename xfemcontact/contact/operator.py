@@ -40,6 +40,7 @@ class InterfaceOperator:
         self.chi = np.full((k, ng), 1 if contact_init else 0, dtype=np.int64)
         self.s = np.full((k, ng), float(seuil_init) if seuil_init is not None else 0.0)
         self.stick = None       # points held in stick (the stick predictor), or None
+        self.frozen = None      # frozen friction statuses (0 stick, +-1 slip), or None
         # friction without bound (every point in contact sticks): the fallback start
         # when the frictionless one has no solution, see xfemcontact.solver.loops
         self.unbounded = False
@@ -88,12 +89,19 @@ class InterfaceOperator:
     # -- residual and tangent -------------------------------------------------
     def terms(self, x):
         g, ut, lam, Lam = self.point_fields(self.element_values(x))
-        s, stick = self.s, self.stick
+        s, stick, slip = self.s, self.stick, None
+        if self.frozen is not None:
+            stick, slip = self.frozen == 0, self.frozen
         if self.unbounded:
             # held in stick, the solution does not depend on s; mu s = -1 Pa makes
             # LAGS_F1 the tangential traction in Pa meanwhile
             s, stick = np.full(s.shape, -1.0 / self.law.mu), np.ones(s.shape, bool)
-        return claw.point_terms(self.law, self.chi, s, g, ut, lam, Lam, stick)
+        return claw.point_terms(self.law, self.chi, s, g, ut, lam, Lam, stick, slip)
+
+    def friction_status(self, x):
+        """``(k, ng)`` friction status at ``x``: 0 stick, +-1 slip direction."""
+        g, ut, lam, Lam = self.point_fields(self.element_values(x))
+        return claw.friction_status(self.law, self.chi, self.s, ut, Lam)
 
     def add_residual(self, x, f):
         t = self.terms(x)

@@ -45,6 +45,7 @@ def iterations(model):
             "contact": list(loops.contact), "friction": int(loops.friction),
             "stick_predictor_steps": int(sum(loops.newton_predictor)),
             "line_search_retries": int(loops.line_search_retries),
+            "frozen_status_solves": int(loops.frozen_solves),
             "status_changes": list(loops.status_changes),
             "threshold_changes": [float(c) for c in loops.threshold_changes]}
 

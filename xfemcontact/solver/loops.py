@@ -52,6 +52,10 @@ Reason = PETSc.SNES.ConvergedReason
 #: Newton iterations allowed to the frictionless first threshold iteration (a
 #: linear problem once statuses are frozen) before it is taken as having no solution
 FREE_START_ITERATIONS = 3
+#: most Newton solves with frozen friction statuses, and the status changes after
+#: which a point keeps its status (see ContactLoop._frozen_statuses)
+FROZEN_SOLVES = 30
+MAX_FLIPS = 3
 
 
 class LoopRecord:
@@ -63,6 +67,7 @@ class LoopRecord:
         self.friction = 0
         self.newton_predictor = []  # Newton iterations (0 or 1) of every stick predictor
         self.line_search_retries = 0  # full-step Newton solves redone with a line search
+        self.frozen_solves = 0     # Newton solves with frozen friction statuses
         self.status_changes = []   # changes after every Newton solve
         self.threshold_changes = []
         self.warnings = []
@@ -137,12 +142,50 @@ class ContactLoop:
         finally:
             _line_search(newton, opts, key, kind)
         self.record.newton.append(newton.getIterationNumber())
-        if newton.getConvergedReason() > 0 and not self.record.line_search_retries:
-            self.record.warnings.append(
-                "Newton with full steps (code_aster's) did not converge in a threshold iteration; "
-                "it was redone from the same start with a backtracking line search "
-                "(-snes_linesearch_type bt)")
         self.record.line_search_retries += 1
+        if newton.getConvergedReason() > 0:
+            self._warn_once("Newton with full steps (code_aster's) did not converge in a threshold "
+                            "iteration; it was redone from the same start with a backtracking line "
+                            "search (-snes_linesearch_type bt)")
+            return
+        start.copy(x)
+        self._frozen_statuses(x)
+
+    def _frozen_statuses(self, x):
+        """Newton with the friction statuses frozen (each solve is then linear), the
+        statuses updated from the result until they stop changing, then Newton with
+        the real law from there.  A point that has changed ``MAX_FLIPS`` times keeps
+        its status (no cycling)."""
+        op, newton = self.model.interface, self.newton
+        mpi = self.model.comm.tompi4py()
+        status = op.friction_status(x)
+        flips = np.zeros(status.shape, dtype=np.int64)
+        try:
+            for _ in range(FROZEN_SOLVES):
+                op.frozen = status
+                newton.solve(None, x)
+                self.record.newton.append(newton.getIterationNumber())
+                self.record.frozen_solves += 1
+                if newton.getConvergedReason() <= 0:
+                    break
+                new = op.friction_status(x)
+                flips += new != status
+                new = np.where(flips > MAX_FLIPS, status, new)
+                if not mpi.allreduce(int(np.count_nonzero(new != status))):
+                    break
+                status = new
+        finally:
+            op.frozen = None
+        newton.solve(None, x)
+        self.record.newton.append(newton.getIterationNumber())
+        if newton.getConvergedReason() > 0:
+            self._warn_once("Newton did not converge in a threshold iteration, with full steps nor with "
+                            "a line search (points at the stick/slip limit); it converged with the "
+                            "friction statuses frozen in Newton and updated between solves")
+
+    def _warn_once(self, text):
+        if text not in self.record.warnings:
+            self.record.warnings.append(text)
 
 
 def _line_search(snes, opts, key, kind):
