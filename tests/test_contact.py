@@ -222,6 +222,19 @@ def test_newton_cycling_at_the_stick_slip_limit_ends_with_frozen_statuses(tmp_pa
     assert np.allclose(np.abs(np.array(it["LAGS_F1"])[sliding]), 1.0, atol=0.05)
 
 
+def test_too_small_coef_frot_is_named_when_newton_cycles(tmp_path):
+    """Newton cycling at the stick/slip limit with COEF_FROT five orders too small: the
+    run stops with a message suggesting COEF_FROT; with the suggested order it converges."""
+    case = DATA_CASES / "arc_small_coef_frot.toml"
+    p = run_cli(["run", case, "-o", tmp_path / "small"])
+    assert p.returncode != 0
+    assert "COEF_FROT = 1000 is small for this problem" in p.stderr
+    fixed = tmp_path / "fixed.toml"
+    fixed.write_text(case.read_text().replace("coef_frot = 1000.0", "coef_frot = 1.0e8"))
+    assert run_cli(["run", fixed, "-o", tmp_path / "fixed"]).returncode == 0
+    assert results(tmp_path / "fixed")["converged"]
+
+
 @pytest.mark.mpi
 def test_mpi_same_interface_values(tmp_path):
     assert_same_interface(*one_and_many(tmp_path, CASES / "ssnv509a.toml", 2), 1e-10)

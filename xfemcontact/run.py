@@ -176,6 +176,34 @@ _MUMPS_HINTS = {
 }
 
 
+def coef_frot_hint(model):
+    """A sentence suggesting COEF_FROT of the order of E / (h mu |LAGS_C|) when the one
+    given is far below it (semi-multiplier form), else "" (collective).
+
+    The trial value LAGS_F1 - COEF_FROT [u].tau compares a dimensionless multiplier
+    with a slip: with a slip stiffness E / h and a threshold mu |s|, a slip of one
+    threshold's worth moves the trial by COEF_FROT h mu |s| / E, which must not be
+    tiny for Newton to tell stick from slip.
+    """
+    from mpi4py import MPI
+
+    law, op, mesh = model.law, model.interface, model.mesh
+    if law.unknown == "traction" or op is None:
+        return ""
+    mpi = model.comm.tompi4py()
+    xv = mesh.x[mesh.cell_nodes[:, :mesh.element.nv]]
+    edges = np.linalg.norm(xv - np.roll(xv, 1, axis=1), axis=2).max(axis=1)
+    h = mpi.allreduce(float(edges.sum()), op=MPI.SUM) / max(mpi.allreduce(len(edges), op=MPI.SUM), 1)
+    s = mpi.allreduce(float(np.abs(op.s).max(initial=0.0)), op=MPI.MAX)
+    if h <= 0 or s <= 0:
+        return ""
+    scale = model.case.material.E / (h * law.mu * s)
+    if law.coef_frot >= 0.01 * scale:
+        return ""
+    return (f"COEF_FROT = {law.coef_frot:g} is small for this problem (E / (h mu |LAGS_C|) = "
+            f"{scale:.2g}): try coef_frot of that order, Newton then tells stick from slip")
+
+
 def diagnose(model, reason, outdir):
     """What did not converge and why (collective: every process gets the same dict).
 
@@ -241,6 +269,12 @@ def diagnose(model, reason, outdir):
         what = "Newton: the residual is NaN or infinite"
     else:
         what = f"Newton diverged ({_SNES.get(newton_reason, newton_reason)})"
+    solve = history[-last_solve:] if history else []
+    cycling = len(solve) > 5 and min(solve) < 0.1 * solve[-1]     # got low, then jumped back
+    if loop == "newton" and loops is not None and model.law.friction and cycling:
+        hint = coef_frot_hint(model)
+        if hint:
+            what += f"; {hint}"
     parts = [f"{case.source}: no convergence: {what}"]
     if last:
         rel = f" (relative to the loads: {relative[-1]:.3e})" if relative else ""
