@@ -10,6 +10,13 @@ DATA_CASES = ROOT / "tests" / "data" / "cases"
 SSNV509 = ["ssnv509a", "ssnv509a_med", "ssnv509b", "ssnv509b_refined"]
 
 
+def run_ok(case, out, *options):
+    """Run ``case`` into ``out``, asserting success; returns the process and results.json."""
+    p = run_cli(["run", case, "-o", out, *options])
+    assert p.returncode == 0, p.stdout + p.stderr
+    return p, results(out)
+
+
 def exact(x, y, yc=11.77):
     t = np.arctan2(y - yc, x - 5.0)
     return -0.1 * np.sin(t) ** 2, (x - 5.0) / (2.0 * (y - yc))
@@ -25,10 +32,7 @@ def pointwise_errors(res):
 @pytest.mark.parametrize("name", SSNV509)
 def test_ssnv509_tables_and_null_pivots(tmp_path, name):
     """code_aster's four tests pass; with MUMPS null-pivot detection on, no null pivot."""
-    out = tmp_path / name
-    p = run_cli(["run", CASES / f"{name}.toml", "-o", out, "-mat_mumps_icntl_24", "1"])
-    assert p.returncode == 0, p.stdout + p.stderr
-    r = results(out)
+    _, r = run_ok(CASES / f"{name}.toml", tmp_path / name, "-mat_mumps_icntl_24", "1")
     assert r["converged"]
     assert all(t["ok"] for t in r["tests"]), r["tests"]
     assert r["linear_solver"]["mumps"]["null_pivots"] == 0
@@ -58,10 +62,7 @@ def test_interface_table_layout(tmp_path):
                                   "ssnv509_jittered", "ssnv509_distorted_quad8", "inclusion_biaxial",
                                   "flat_arc", "column_on_incline", "column_on_incline_tria6", "inclined_line"])
 def test_beyond_stick(tmp_path, name):
-    out = tmp_path / name
-    p = run_cli(["run", CASES / "validation" / f"{name}.toml", "-o", out])
-    assert p.returncode == 0, p.stdout + p.stderr
-    r = results(out)
+    _, r = run_ok(CASES / "validation" / f"{name}.toml", tmp_path / name)
     assert r["converged"] and all(t["ok"] for t in r["tests"])
 
 
@@ -70,10 +71,7 @@ def test_straight_interfaces_on_quadrangles_have_unique_multipliers(tmp_path, na
     """The kernel of a straight interface across quadrangles spans rows of cut cells (every
     packet alone is regular): with null-pivot detection on, MUMPS finds none (20 and 1
     before the kernels were looked for across packets)."""
-    out = tmp_path / name
-    p = run_cli(["run", CASES / "validation" / f"{name}.toml", "-o", out, "-mat_mumps_icntl_24", "1"])
-    assert p.returncode == 0, p.stdout + p.stderr
-    r = results(out)
+    _, r = run_ok(CASES / "validation" / f"{name}.toml", tmp_path / name, "-mat_mumps_icntl_24", "1")
     assert r["linear_solver"]["mumps"]["null_pivots"] == 0
     assert r["multipliers"]["ties"] >= 1
 
@@ -82,11 +80,8 @@ def test_frictionless_start_without_equilibrium_restarts_sticking(tmp_path):
     """A block held only by friction, no SEUIL_INIT: code_aster's frictionless first
     iteration has no solution; it is redone sticking, with a warning, and the closed
     form is reached."""
-    out = tmp_path / "col"
-    p = run_cli(["run", CASES / "validation" / "column_on_incline_tria6.toml", "-o", out])
-    assert p.returncode == 0, p.stdout + p.stderr
+    p, r = run_ok(CASES / "validation" / "column_on_incline_tria6.toml", tmp_path / "col")
     assert "held only by friction" in p.stderr + p.stdout
-    r = results(out)
     assert r["converged"] and all(t["ok"] for t in r["tests"])
     assert r["iterations"]["stick_predictor_steps"] == 1
 
@@ -95,9 +90,7 @@ def test_chained_ties_keep_linear_fields(tmp_path):
     """A nearly flat arc ties several neighbouring crossed edges in a row: each gradient
     tie must be written in free carriers (a later tie may take one of its roots).  With
     the chain left unresolved LAGS_F1 was 5.0e-5 off here, 2.5e-5 on SSNV509 a at N = 320."""
-    out = tmp_path / "flat"
-    assert run_cli(["run", CASES / "validation" / "flat_arc.toml", "-o", out]).returncode == 0
-    r = results(out)
+    _, r = run_ok(CASES / "validation" / "flat_arc.toml", tmp_path / "flat")
     assert r["multipliers"]["ties"] >= 5
     it = r["interface"]
     x, y = np.array(it["x"]), np.array(it["y"])
@@ -210,10 +203,7 @@ def test_newton_cycling_at_the_stick_slip_limit_ends_with_frozen_statuses(tmp_pa
     """Partial slip on an arc: Newton cycles on points at the stick/slip limit with full
     steps and with a line search; with the friction statuses frozen in Newton and
     updated between solves the loops converge, and |LAGS_F1| <= 1 holds."""
-    out = tmp_path / "arc"
-    p = run_cli(["run", DATA_CASES / "arc_partial_slip_tria6.toml", "-o", out])
-    assert p.returncode == 0, p.stdout + p.stderr
-    r = results(out)
+    _, r = run_ok(DATA_CASES / "arc_partial_slip_tria6.toml", tmp_path / "arc")
     assert r["converged"]
     assert r["iterations"]["frozen_status_solves"] > 0
     it = r["interface"]
@@ -231,8 +221,7 @@ def test_too_small_coef_frot_is_named_when_newton_cycles(tmp_path):
     assert "COEF_FROT = 1000 is small for this problem" in p.stderr
     fixed = tmp_path / "fixed.toml"
     fixed.write_text(case.read_text().replace("coef_frot = 1000.0", "coef_frot = 1.0e8"))
-    assert run_cli(["run", fixed, "-o", tmp_path / "fixed"]).returncode == 0
-    assert results(tmp_path / "fixed")["converged"]
+    assert run_ok(fixed, tmp_path / "fixed")[1]["converged"]
 
 
 @pytest.mark.mpi

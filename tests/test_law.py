@@ -66,13 +66,13 @@ def test_stick_mask_holds_slipping_points_in_the_stick_branch(form):
     Lam = np.zeros(n)
     free = claw.point_terms(law, chi, s, g, ut, lam, Lam)
     assert free["slip"].all()
-    held = claw.point_terms(law, chi, s, g, ut, lam, Lam, stick=np.ones(n, bool))
+    held = claw.point_terms(law, chi, s, g, ut, lam, Lam, held=np.zeros(n))
     assert not held["slip"].any()
     stick = claw.point_terms(law, chi, s, g, 1e-9 * ut, lam, Lam)      # a genuine stick state
     for key in ("tt", "tL", "LL"):
         assert np.allclose(held[key], stick[key])
     # residual linear in ut: doubling ut doubles rt (Lam = 0)
-    twice = claw.point_terms(law, chi, s, g, 2 * ut, lam, Lam, stick=np.ones(n, bool))
+    twice = claw.point_terms(law, chi, s, g, 2 * ut, lam, Lam, held=np.zeros(n))
     assert np.allclose(twice["rt"], 2 * held["rt"])
 
 

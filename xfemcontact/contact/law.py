@@ -50,13 +50,12 @@ class Law:
     rho_T: float = 1.0     # traction form: fixed augmentation, Pa/m
 
 
-def point_terms(law, chi, s, g, ut, lam, Lam, stick=None, slip=None):
+def point_terms(law, chi, s, g, ut, lam, Lam, held=None):
     """Coefficients of the residual and tangent at every point (arrays of one shape).
 
-    ``stick``: optional boolean mask of points held in the stick branch whatever
-    their trial value (the stick predictor, see :mod:`xfemcontact.solver.loops`);
-    ``slip``: optional array of +-1 for points held in the slip branch with that
-    direction (0: not held), frozen friction statuses.
+    ``held``: optional friction statuses imposed on the points (0 stick, +-1 slip
+    in that direction, NaN: the trial value decides), see :func:`friction_status`
+    and :mod:`xfemcontact.solver.loops` (stick predictor, frozen statuses).
 
     Returns a dict of arrays:
     ``rg`` (coefficient of dg), ``rl`` (of dlam), ``rt`` (of dut), ``rL`` (of dLam),
@@ -74,50 +73,47 @@ def point_terms(law, chi, s, g, ut, lam, Lam, stick=None, slip=None):
     }
     musig = mu * s
     active = on & law.friction & (np.abs(musig) > 0)
-    held = np.zeros(np.shape(g), bool) if stick is None else stick
-    sliding = np.zeros(np.shape(g)) if slip is None else slip
-    if law.unknown == "traction":
-        return _traction_terms(law, t, active, musig, ut, Lam, held, sliding)
-    gt = Lam - rho_t * ut
-    stick = ((np.abs(gt) <= 1.0 + STICK_TOL) | held) & (sliding == 0)
-    p = np.where(stick, gt, np.where(sliding != 0, sliding, np.sign(gt)))
+    status = friction_status(law, chi, s, ut, Lam, held)
+    stick = status == 0
     kn = np.where(stick, 1.0, 0.0)
+    t["slip"] = active & ~stick
+    if law.unknown == "traction":
+        return _traction_terms(law, t, active, musig, ut, Lam, stick, status)
+    p = np.where(stick, Lam - rho_t * ut, status)        # the projected trial value
     t["rt"] = np.where(active, musig * p, 0.0)
     t["rL"] = np.where(active, (musig / rho_t) * (Lam - p), Lam)
     t["tt"] = np.where(active, -musig * rho_t * kn, 0.0)
     t["tL"] = np.where(active, musig * kn, 0.0)
     t["LL"] = np.where(active, (musig / rho_t) * (1.0 - kn), 1.0)
-    t["slip"] = active & ~stick
     return t
 
 
-def _traction_terms(law, t, active, musig, ut, T, held, sliding):
+def _traction_terms(law, t, active, musig, ut, T, stick, status):
     """Friction terms with the tangential traction T (Pa) as unknown."""
     rho = law.rho_T
-    bound = np.abs(musig)
-    trial = T + rho * ut
-    stick = ((np.abs(trial) <= bound * (1.0 + STICK_TOL)) | held) & (sliding == 0)
-    P = np.where(stick, trial, bound * np.where(sliding != 0, sliding, np.sign(trial)))
+    P = np.where(stick, T + rho * ut, np.abs(musig) * status)   # the projected trial traction
     kn = np.where(stick, 1.0, 0.0)
     t["rt"] = np.where(active, P, 0.0)
     t["rL"] = np.where(active, -(T - P) / rho, -T / rho)
     t["tt"] = np.where(active, rho * kn, 0.0)
     t["tL"] = np.where(active, kn, 0.0)
     t["LL"] = np.where(active, -(1.0 - kn) / rho, -1.0 / rho)
-    t["slip"] = active & ~stick
     return t
 
 
-def friction_status(law, chi, s, ut, Lam):
-    """Friction status of every point from its trial value: 0 stick (or friction
-    inactive), +-1 slip in that direction."""
+def friction_status(law, chi, s, ut, Lam, held=None):
+    """Friction status of every point: 0 stick (or friction inactive), +-1 slip in
+    that direction, from the trial value (LAGS_F1 - COEF_FROT ut against 1, or
+    T + rho_T ut against mu |s|) unless ``held`` imposes it (not NaN there)."""
     active = chi.astype(bool) & law.friction & (np.abs(law.mu * s) > 0)
     if law.unknown == "traction":
         trial, bound = Lam + law.rho_T * ut, np.abs(law.mu * s)
     else:
         trial, bound = Lam - law.coef_frot * ut, 1.0
-    slipping = active & (np.abs(trial) > bound * (1.0 + STICK_TOL))
-    return np.where(slipping, np.sign(trial), 0.0)
+    status = np.where(np.abs(trial) > bound * (1.0 + STICK_TOL), np.sign(trial), 0.0)
+    if held is not None:
+        status = np.where(np.isnan(held), status, held)
+    return np.where(active, status, 0.0)
 
 
 def semi_multiplier(law, s, F):

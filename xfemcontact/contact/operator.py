@@ -39,8 +39,9 @@ class InterfaceOperator:
         k, ng = self.pts.w.shape
         self.chi = np.full((k, ng), 1 if contact_init else 0, dtype=np.int64)
         self.s = np.full((k, ng), float(seuil_init) if seuil_init is not None else 0.0)
-        self.stick = None       # points held in stick (the stick predictor), or None
-        self.frozen = None      # frozen friction statuses (0 stick, +-1 slip), or None
+        # friction statuses imposed on the points (0 stick, +-1 slip, NaN free), or None:
+        # the stick predictor and frozen statuses, see xfemcontact.solver.loops
+        self.held = None
         # friction without bound (every point in contact sticks): the fallback start
         # when the frictionless one has no solution, see xfemcontact.solver.loops
         self.unbounded = False
@@ -89,14 +90,12 @@ class InterfaceOperator:
     # -- residual and tangent -------------------------------------------------
     def terms(self, x):
         g, ut, lam, Lam = self.point_fields(self.element_values(x))
-        s, stick, slip = self.s, self.stick, None
-        if self.frozen is not None:
-            stick, slip = self.frozen == 0, self.frozen
+        s, held = self.s, self.held
         if self.unbounded:
             # held in stick, the solution does not depend on s; mu s = -1 Pa makes
             # LAGS_F1 the tangential traction in Pa meanwhile
-            s, stick = np.full(s.shape, -1.0 / self.law.mu), np.ones(s.shape, bool)
-        return claw.point_terms(self.law, self.chi, s, g, ut, lam, Lam, stick, slip)
+            s, held = np.full(s.shape, -1.0 / self.law.mu), np.zeros(s.shape)
+        return claw.point_terms(self.law, self.chi, s, g, ut, lam, Lam, held)
 
     def friction_status(self, x):
         """``(k, ng)`` friction status at ``x``: 0 stick, +-1 slip direction."""

@@ -378,10 +378,7 @@ def _tie_kernels(space, mesh, edges, r, lin_at_points, weights):
             classes[classes == hi] = lo
             space.n_ties += 1
             space.tie_edges.append((int(ids[ia[j]]), int(ids[ib[j]]), float(lams[c])))
-            P = sp.csr_matrix((np.ones(len(members)), (np.arange(len(members)), classes)),
-                              shape=(len(members), len(members)))
-            used = np.unique(classes)
-            lam = _smallest_scaled_eigenvalue((P.T @ Gp @ P)[used][:, used])
+            lam = _merged_eigenvalue(Gp, np.arange(len(members)), classes)
         smallest = min(smallest, lam)
         root[members] = members[classes]       # class label = its smallest member
     smallest = min(smallest, _tie_global_kernels(space, G, e, ia, ib, centrality, root))

@@ -43,6 +43,8 @@ that sticks everywhere converges at that step without another factorisation.
 
 ``-contact_snes_monitor`` / ``-friction_snes_monitor`` print them.
 """
+from contextlib import contextmanager
+
 import numpy as np
 
 from xfemcontact._petsc import PETSc
@@ -131,16 +133,11 @@ class ContactLoop:
         self.record.newton.append(newton.getIterationNumber())
         if newton.getConvergedReason() > 0 or start is None:
             return
-        opts, key = PETSc.Options(), newton.getOptionsPrefix() + "snes_linesearch_type"
-        kind = opts.getString(key, "basic")
-        if kind != "basic":              # the user chose a line search: theirs stands
+        if _line_search(newton) != "basic":      # the user chose a line search: theirs stands
             return
         start.copy(x)
-        _line_search(newton, opts, key, "bt")
-        try:
+        with _newton_settings(newton, line_search="bt"):
             newton.solve(None, x)
-        finally:
-            _line_search(newton, opts, key, kind)
         self.record.newton.append(newton.getIterationNumber())
         self.record.line_search_retries += 1
         if newton.getConvergedReason() > 0:
@@ -160,22 +157,19 @@ class ContactLoop:
         mpi = self.model.comm.tompi4py()
         status = op.friction_status(x)
         flips = np.zeros(status.shape, dtype=np.int64)
-        try:
-            for _ in range(FROZEN_SOLVES):
-                op.frozen = status
+        for _ in range(FROZEN_SOLVES):
+            with _held(op, status):
                 newton.solve(None, x)
-                self.record.newton.append(newton.getIterationNumber())
-                self.record.frozen_solves += 1
-                if newton.getConvergedReason() <= 0:
-                    break
-                new = op.friction_status(x)
-                flips += new != status
-                new = np.where(flips > MAX_FLIPS, status, new)
-                if not mpi.allreduce(int(np.count_nonzero(new != status))):
-                    break
-                status = new
-        finally:
-            op.frozen = None
+            self.record.newton.append(newton.getIterationNumber())
+            self.record.frozen_solves += 1
+            if newton.getConvergedReason() <= 0:
+                break
+            new = op.friction_status(x)
+            flips += new != status
+            new = np.where(flips > MAX_FLIPS, status, new)
+            if not mpi.allreduce(int(np.count_nonzero(new != status))):
+                break
+            status = new
         newton.solve(None, x)
         self.record.newton.append(newton.getIterationNumber())
         if newton.getConvergedReason() > 0:
@@ -188,10 +182,42 @@ class ContactLoop:
             self.record.warnings.append(text)
 
 
-def _line_search(snes, opts, key, kind):
-    """Set the line search of ``snes`` (petsc4py 3.18 has no SNESLineSearch object)."""
-    opts.setValue(key, kind)
-    snes.setFromOptions()
+def _line_search(snes, kind=None):
+    """The line search type of ``snes`` in the options database; with ``kind``, set it
+    first (petsc4py 3.18 has no SNESLineSearch object: through the options)."""
+    opts, key = PETSc.Options(), snes.getOptionsPrefix() + "snes_linesearch_type"
+    if kind is not None:
+        opts.setValue(key, kind)
+        snes.setFromOptions()
+    return opts.getString(key, "basic")
+
+
+@contextmanager
+def _newton_settings(newton, max_it=None, line_search=None):
+    """Newton with at most ``max_it`` iterations and/or another line search for a
+    block, restored after it."""
+    old_it, old_search = newton.getTolerances()[3], _line_search(newton)
+    try:
+        if max_it is not None:
+            newton.setTolerances(max_it=min(max_it, old_it))
+        if line_search is not None:
+            _line_search(newton, line_search)
+        yield
+    finally:
+        newton.setTolerances(max_it=old_it)
+        if line_search is not None:
+            _line_search(newton, old_search)
+
+
+@contextmanager
+def _held(op, statuses):
+    """The interface operator with friction statuses imposed for a block (see
+    :func:`xfemcontact.contact.law.friction_status`)."""
+    op.held = statuses
+    try:
+        yield
+    finally:
+        op.held = None
 
 
 class FrictionLoop:
@@ -242,14 +268,12 @@ class FrictionLoop:
             self.contact.solve(None, x)
             return
         x0, chi0 = x.copy(), op.chi.copy()
-        max_it = newton.getTolerances()[3]
-        newton.setTolerances(max_it=min(max_it, FREE_START_ITERATIONS))
         loop = self.contact.getPythonContext()
         loop.retry = False
         try:
-            self.contact.solve(None, x)
+            with _newton_settings(newton, max_it=FREE_START_ITERATIONS):
+                self.contact.solve(None, x)
         finally:
-            newton.setTolerances(max_it=max_it)
             loop.retry = True
         if self.contact.getConvergedReason() > 0:
             return
@@ -263,17 +287,11 @@ class FrictionLoop:
         self.contact.solve(None, x)
 
     def _stick_predictor(self, held, x):
-        """One Newton step with the points ``held`` in the stick branch."""
-        op, newton = self.model.interface, self.model.snes
-        max_it = newton.getTolerances()[3]
-        op.stick = held
-        newton.setTolerances(max_it=1)
-        try:
+        """One Newton step with the points ``held`` (mask) in the stick branch."""
+        newton = self.model.snes
+        with _held(self.model.interface, np.where(held, 0.0, np.nan)), _newton_settings(newton, max_it=1):
             newton.solve(None, x)
-            self.record.newton_predictor.append(newton.getIterationNumber())
-        finally:
-            newton.setTolerances(max_it=max_it)
-            op.stick = None
+        self.record.newton_predictor.append(newton.getIterationNumber())
 
 
 def _relative_change(comm, lam, previous):
