@@ -60,17 +60,20 @@ def test_interface_table_layout(tmp_path):
                                   "frictionless", "tangent_circle", "tangent_circle_tria6",
                                   "ellipse_tria6", "inclined_line_tria6", "sinusoid",
                                   "ssnv509_jittered", "ssnv509_distorted_quad8", "inclusion_biaxial",
-                                  "flat_arc", "column_on_incline", "column_on_incline_tria6", "inclined_line"])
+                                  "flat_arc", "column_on_incline", "column_on_incline_tria6", "inclined_line",
+                                  "diagonal_line"])
 def test_beyond_stick(tmp_path, name):
     _, r = run_ok(CASES / "validation" / f"{name}.toml", tmp_path / name)
     assert r["converged"] and all(t["ok"] for t in r["tests"])
 
 
-@pytest.mark.parametrize("name", ["inclined_line", "column_on_incline"])
+@pytest.mark.parametrize("name", ["inclined_line", "column_on_incline", "diagonal_line"])
 def test_straight_interfaces_on_quadrangles_have_unique_multipliers(tmp_path, name):
     """The kernel of a straight interface across quadrangles spans rows of cut cells (every
     packet alone is regular): with null-pivot detection on, MUMPS finds none (20 and 1
-    before the kernels were looked for across packets)."""
+    before the kernels were looked for across packets).  Along quadrangle diagonals no
+    edge interior is crossed and the two corners off the line are twins (12 null pivots
+    and a MUMPS failure before twins were merged)."""
     _, r = run_ok(CASES / "validation" / f"{name}.toml", tmp_path / name, "-mat_mumps_icntl_24", "1")
     assert r["linear_solver"]["mumps"]["null_pivots"] == 0
     assert r["multipliers"]["ties"] >= 1
@@ -167,6 +170,38 @@ def assert_same_interface(r1, rn, atol, fields=INTERFACE_FIELDS):
     a, b = r1["interface"], rn["interface"]
     for k in fields:
         assert np.allclose(a[k], b[k], rtol=0, atol=atol), k
+
+
+def test_failed_factorisation_ends_in_a_clear_error(tmp_path):
+    """The raw vertex space (algo_lagr = "NON") on the diagonal line is singular: a Newton
+    step meets MUMPS INFOG(1) = -10.  PETSc 3.18 then skips every later numeric
+    factorisation of that factor, and the fallbacks (line search, frozen statuses) used to
+    stop on MUMPS INFOG(1) = -3 with a traceback.  The failed factor is dropped: each
+    fallback factorises anew, and the run ends with exit code 3 and one line naming the
+    singular matrix."""
+    text = (CASES / "validation" / "diagonal_line.toml").read_text()
+    case = tmp_path / "raw.toml"
+    case.write_text(text.replace("ordre_int = 4", 'ordre_int = 4\nalgo_lagr = "NON"'))
+    out = tmp_path / "raw"
+    p = run_cli(["run", case, "-o", out])
+    assert p.returncode == 3, p.stdout + p.stderr
+    assert "Traceback" not in p.stderr
+    errors = [line for line in p.stderr.splitlines() if line.startswith("error:")]
+    assert len(errors) == 1 and "linear solver failed" in errors[0] and "INFOG(1) = -10" in errors[0]
+    r = results(out)
+    assert not r["converged"] and r["diagnostics"]["loop"] == "linear solver"
+    assert r["iterations"]["line_search_retries"] == 1
+
+
+@pytest.mark.mpi
+def test_mpi_interface_along_quadrangle_diagonals(tmp_path):
+    """Twins are found from gathered data: 2 processes (which crashed before) give the
+    exact multipliers of one process."""
+    r1, r2 = one_and_many(tmp_path, CASES / "validation" / "diagonal_line.toml", 2)
+    for r in (r1, r2):
+        assert r["converged"] and all(t["ok"] for t in r["tests"]), r["tests"]
+    assert r1["multipliers"] == r2["multipliers"]
+    assert_same_interface(r1, r2, 1e-12)
 
 
 @pytest.mark.mpi

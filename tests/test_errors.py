@@ -341,6 +341,43 @@ def test_newton_not_converged(tmp_path):
     assert d["status_changes"] is not None
 
 
+PULLED_OFF = """\
+title = "upper block pulled off, held by the interface only"
+[mesh]
+rectangle = { nx = 12, ny = 8, x = [0.0, 3.0], y = [0.0, 2.0], cell = "QUAD8" }
+[material]
+E = 1.0e6
+nu = 0.3
+[[dirichlet]]
+group = "bottom"
+DX = 0.0
+DY = 0.0
+[[traction]]
+group = "top"
+FY = 10.0
+[interface]
+level_set = "y - 0.25*x - 0.6"
+[contact]
+frottement = "COULOMB"
+coulomb = 0.5
+coef_cont = 1.0e6
+coef_frot = 1.0e3
+seuil_init = -5.0
+[newton]
+resi_glob_rela = 1.0e-10
+[output]
+plots = false
+"""
+
+
+def test_singular_newton_is_not_told_to_iterate_more(tmp_path):
+    """A block pulled off the interface is free once it opens: Newton's residual ends far
+    above the loads, and the message names a singular tangent, not iter_glob_maxi."""
+    line, d = _run_not_converged(tmp_path, PULLED_OFF)
+    assert d["loop"] == "newton" and d["relative_residuals"][-1] > 1.0
+    assert "the tangent is probably singular" in line and "raise iter_glob_maxi" not in line
+
+
 def test_friction_loop_not_converged(tmp_path):
     line, d = _run_not_converged(tmp_path, edited(CONTACT, ("iter_frot_maxi = 30",
                                                             "iter_frot_maxi = 1")))

@@ -76,6 +76,7 @@ class Model:
         self.snes = None
         self.loops = None
         self.n_jacobians = 0
+        self.linear_failure = None     # see solver.loops.solve_newton
 
     @classmethod
     def from_case(cls, case, raw=None):
@@ -275,7 +276,12 @@ class Model:
         except Exception:      # not a factorising preconditioner
             return info
         if info["solver"] == "mumps" and self.n_jacobians:
-            F = pc.getFactorMatrix()
+            try:
+                F = pc.getFactorMatrix()
+            except PETSc.Error:     # dropped after a failed factorisation (solve_newton)
+                if self.linear_failure is not None and self.linear_failure["mumps"]:
+                    info["mumps"] = self.linear_failure["mumps"]
+                return info
             info["mumps"] = {"null_pivots": int(F.getMumpsInfog(28)),
                              "status": int(F.getMumpsInfog(1)),
                              "factor_entries": _mumps_count(F.getMumpsInfog(29)),

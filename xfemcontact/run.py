@@ -231,6 +231,10 @@ def diagnose(model, reason, outdir):
         mumps = (info.get("mumps") or {}).get("status")
     except Exception:       # no factorisation: nothing to say about it
         pass
+    failure = getattr(model, "linear_failure", None)
+    if newton_reason == R.DIVERGED_LINEAR_SOLVE and failure is not None:
+        ksp_reason = failure["ksp_reason"]      # the KSP was reset since (solve_newton)
+        mumps = (failure["mumps"] or {}).get("status")
     changes = int(loops.status_changes[-1]) if loops is not None and loops.status_changes else None
     threshold = None
     if loops is not None and loops.threshold_changes:
@@ -261,6 +265,12 @@ def diagnose(model, reason, outdir):
         what += f", MUMPS INFOG(1) = {mumps})" if mumps is not None else ")"
         if mumps in _MUMPS_HINTS:
             what += f": {_MUMPS_HINTS[mumps]}"
+    elif newton_reason == R.DIVERGED_MAX_IT and relative and relative[-1] > 1.0:
+        what = (f"Newton did not converge in ITER_GLOB_MAXI = {snes.getTolerances()[3]} "
+                f"iterations and its residual ends {relative[-1]:.2g} times the loads: the tangent "
+                f"is probably singular, not too few iterations; check that no part is held by the "
+                f"interface alone while it opens (contact_init = NON, a part pulled away) and the "
+                f"supports")
     elif newton_reason == R.DIVERGED_MAX_IT:
         what = (f"Newton did not converge in ITER_GLOB_MAXI = {snes.getTolerances()[3]} "
                 f"iterations (RESI_GLOB_RELA = {snes.getTolerances()[0]:g}); raise "

@@ -36,7 +36,10 @@ partition:
    packet's edge crossed nearest its middle are merged (code_aster VERSION3,
    ELIM_ARETE='ELIM': one shared dof, no extra unknown).  On curved interfaces
    nothing is merged and the accuracy of the raw space is kept; on straight
-   ones exactly the kernel is removed.
+   ones exactly the kernel is removed.  Carriers whose traces are the same
+   function (a straight interface along quadrangle diagonals: the two corners
+   off the line) are merged too, and so are crossed edges while a set of
+   carriers sharing cut cells is still singular.
 3. *Gradient ties.*  The tie of a packet that is weak but not singular (a
    locally flat spot of a curved interface, on quadrangles) becomes
    lam_a = lam_b + (x_a - x_b) . g, g the multiplier's gradient read from the
@@ -381,9 +384,35 @@ def _tie_kernels(space, mesh, edges, r, lin_at_points, weights):
             lam = _merged_eigenvalue(Gp, np.arange(len(members)), classes)
         smallest = min(smallest, lam)
         root[members] = members[classes]       # class label = its smallest member
+    _tie_twins(space, G, root)
     smallest = min(smallest, _tie_global_kernels(space, G, e, ia, ib, centrality, root))
     space.smallest = smallest
     space.rep = ids[root]
+
+
+def _tie_twins(space, G, root):
+    """Merge carriers whose traces are one and the same function.
+
+    A straight interface through opposite corners of quadrangles (a cell
+    diagonal) crosses no edge: there is no crossed edge to tie, yet the two
+    corners off the line have the same trace t (1 - t) on it, so their
+    difference is a kernel in every such cell.  Two carriers are twins when
+    their scaled 2 x 2 Gram block is singular (correlation 1 to ``SINGULAR``);
+    each pair is merged, in the order of their ids.  Updates ``root`` in place.
+    """
+    C = sp.triu(G, k=1).tocoo()
+    d = G.diagonal()
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = C.data / np.sqrt(d[C.row] * d[C.col])
+    twins = np.nonzero(1.0 - corr < SINGULAR)[0]
+    ids = space.ids
+    for j in twins[np.lexsort((C.col[twins], C.row[twins]))]:
+        a, b = root[C.row[j]], root[C.col[j]]
+        if a == b:
+            continue
+        root[root == max(a, b)] = min(a, b)
+        space.n_ties += 1
+        space.tie_edges.append((int(ids[C.row[j]]), int(ids[C.col[j]]), 0.0))
 
 
 def _tie_global_kernels(space, G, e, ia, ib, centrality, root):

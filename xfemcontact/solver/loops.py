@@ -129,7 +129,7 @@ class ContactLoop:
         newton = self.newton
         retry = self.model.law.friction and self.retry
         start = x.copy() if retry else None
-        newton.solve(None, x)
+        solve_newton(self.model, newton, x)
         self.record.newton.append(newton.getIterationNumber())
         if newton.getConvergedReason() > 0 or start is None:
             return
@@ -137,7 +137,7 @@ class ContactLoop:
             return
         start.copy(x)
         with _newton_settings(newton, line_search="bt"):
-            newton.solve(None, x)
+            solve_newton(self.model, newton, x)
         self.record.newton.append(newton.getIterationNumber())
         self.record.line_search_retries += 1
         if newton.getConvergedReason() > 0:
@@ -159,7 +159,7 @@ class ContactLoop:
         flips = np.zeros(status.shape, dtype=np.int64)
         for _ in range(FROZEN_SOLVES):
             with _held(op, status):
-                newton.solve(None, x)
+                solve_newton(self.model, newton, x)
             self.record.newton.append(newton.getIterationNumber())
             self.record.frozen_solves += 1
             if newton.getConvergedReason() <= 0:
@@ -170,7 +170,7 @@ class ContactLoop:
             if not mpi.allreduce(int(np.count_nonzero(new != status))):
                 break
             status = new
-        newton.solve(None, x)
+        solve_newton(self.model, newton, x)
         self.record.newton.append(newton.getIterationNumber())
         if newton.getConvergedReason() > 0:
             self._warn_once("Newton did not converge in a threshold iteration, with full steps nor with "
@@ -180,6 +180,25 @@ class ContactLoop:
     def _warn_once(self, text):
         if text not in self.record.warnings:
             self.record.warnings.append(text)
+
+
+def solve_newton(model, newton, x):
+    """``newton.solve`` from ``x``; a failed factorisation is dropped after it.
+
+    When MUMPS fails (a numerically singular matrix, INFOG(1) = -10) PETSc 3.18's
+    interface skips every later numeric factorisation of that factor, and the
+    next solve (a fallback from the same start) would stop on MUMPS INFOG(1) = -3
+    with a traceback.  The KSP is therefore reset: the next solve analyses and
+    factorises anew.  What failed is kept in ``model.linear_failure`` (KSP reason,
+    MUMPS INFOG(1)) for the diagnostics.
+    """
+    newton.solve(None, x)
+    if newton.getConvergedReason() != Reason.DIVERGED_LINEAR_SOLVE:
+        return
+    ksp = newton.getKSP()
+    info = model.solver_info() or {}
+    model.linear_failure = {"ksp_reason": int(ksp.getConvergedReason()), "mumps": info.get("mumps")}
+    ksp.reset()
 
 
 def _line_search(snes, kind=None):
@@ -290,7 +309,7 @@ class FrictionLoop:
         """One Newton step with the points ``held`` (mask) in the stick branch."""
         newton = self.model.snes
         with _held(self.model.interface, np.where(held, 0.0, np.nan)), _newton_settings(newton, max_it=1):
-            newton.solve(None, x)
+            solve_newton(self.model, newton, x)
         self.record.newton_predictor.append(newton.getIterationNumber())
 
 
