@@ -61,10 +61,28 @@ def test_interface_table_layout(tmp_path):
                                   "ellipse_tria6", "inclined_line_tria6", "sinusoid",
                                   "ssnv509_jittered", "ssnv509_distorted_quad8", "inclusion_biaxial",
                                   "flat_arc", "column_on_incline", "column_on_incline_tria6", "inclined_line",
-                                  "diagonal_line"])
+                                  "diagonal_line", "free_lips"])
 def test_beyond_stick(tmp_path, name):
     _, r = run_ok(CASES / "validation" / f"{name}.toml", tmp_path / name)
     assert r["converged"] and all(t["ok"] for t in r["tests"])
+
+
+def test_free_and_bonded_interfaces_have_an_interface_table(tmp_path):
+    """Without multipliers (law free or bonded) the interface points still carry gap and
+    slip: the free lips of free_lips.toml interpenetrate by -6e-5 m (tested there), bonded
+    ones do not move apart; LAGS_C = LAGS_F1 = 0."""
+    text = (CASES / "validation" / "free_lips.toml").read_text()
+    for law in ("free", "bonded"):
+        case = tmp_path / f"{law}.toml"
+        case.write_text(text.replace('law = "free"', f'law = "{law}"').split("[reference]")[0])
+        p, r = run_ok(case, tmp_path / law)
+        it = r["interface"]
+        assert len(it["x"]) == 2 * 12 and (tmp_path / law / "interface.csv").exists()
+        gap = np.array(it["gap"])
+        assert np.allclose(gap, -6e-5 if law == "free" else 0.0, rtol=0, atol=1e-12)
+        assert np.abs(it["slip"]).max() < 1e-12
+        assert not np.any(it["LAGS_C"]) and not np.any(it["LAGS_F1"])
+        assert set(it["contact"]) == {1.0 if law == "bonded" else 0.0}
 
 
 @pytest.mark.parametrize("name", ["inclined_line", "column_on_incline", "diagonal_line"])

@@ -118,11 +118,12 @@ class Model:
         enriched = geo.enriched if geo is not None else np.zeros(len(x), bool)
         multiplier = np.zeros(len(x), bool)
         self.space = None
-        if self.has_contact:
+        if geo is not None:
             segs = geo.segments()
             el = mesh.element
             self.segment_points = integration.segment_points(
                 el, x[mesh.cell_nodes[segs.cells]], segs, self.case.contact.ordre_int, mesh.cell_ids[segs.cells])
+        if self.has_contact:
             sp = self.segment_points
             self.space = cspace.build(mesh, segs, self.case.contact.algo_lagr,
                                       el.shape_linear(sp.xi), sp.w)
@@ -186,6 +187,7 @@ class Model:
             self.interface = InterfaceOperator(mesh, geo, layout, self.space, self.rep_index, self.law,
                                                self.segment_points, c.contact_init is not False,
                                                c.seuil_init)
+        self.interface_probe = self._probe() if self.interface is None and geo is not None else None
         remote = self.remote_points if self.space is not None else None
         self.K = pattern.create_matrix(layout, self._couplings(), remote,
                                        symmetric=matrix_format() == "sbaij")
@@ -203,6 +205,18 @@ class Model:
         # one matrix: J = K_bulk + (interface tangent of the last Jacobian, K_int)
         self.J = self.K
         self.K_int = None
+
+    def _probe(self):
+        """An interface operator for the results only (laws ``free`` and ``bonded``: no
+        multipliers, nothing assembled): gap and slip at the interface points, LAGS_C =
+        LAGS_F1 = 0; "contact" is 1 for ``bonded``, 0 for ``free``."""
+        k = len(self.geo.segments())
+        nv = self.mesh.element.nv
+        empty = cspace.MultiplierSpace(np.zeros(0, np.int64), np.zeros(0, np.int64), None,
+                                       np.zeros((k, 0), np.int64), np.zeros((k, nv, 0)), algo="NON")
+        law = claw.Law(1.0, 1.0, 0.0, False)
+        return InterfaceOperator(self.mesh, self.geo, self.layout, empty, np.zeros((k, 0), np.int64), law,
+                                 self.segment_points, self.case.interface.law == "bonded")
 
     def _zero_interface_pattern(self, A):
         """Explicit zeros on every interface coupling, so the pattern never changes."""
@@ -300,9 +314,16 @@ class Model:
         """Local work array of the solution, imposed values included."""
         return system.global_to_local(self.layout, self.x, self.x_bc)
 
+    @property
+    def interface_post(self):
+        """The interface operator that gives the results at the interface points: the
+        contact one, or the probe of a ``free`` / ``bonded`` interface (None without one)."""
+        return self.interface if self.interface is not None else getattr(self, "interface_probe", None)
+
     def interface_values(self):
         """Interface point values of this process (see InterfaceOperator.point_values)."""
-        return self.interface.point_values(self.x) if self.interface is not None else None
+        op = self.interface_post
+        return op.point_values(self.x) if op is not None else None
 
     def interface_samples(self):
         """Samples of the interface fields for test tables."""

@@ -40,11 +40,11 @@ class InterfaceTable:
 
 
 def build(model):
-    """The InterfaceTable on rank 0 (None elsewhere, or without contact).  Collective."""
+    """The InterfaceTable on rank 0 (None elsewhere, or without an interface).  Collective."""
     v = model.interface_values()
     if v is None:
         return None
-    op, mesh = model.interface, model.mesh
+    op, mesh = model.interface_post, model.mesh
     k = len(op.segments)
     ends = {key: np.asarray(a).reshape(2, k).T for key, a in v.items()}       # (k, 2): P1, P2
     seg = {"cell": mesh.cell_ids[op.segments.cells], "length": op.pts.w.sum(axis=1),
