@@ -398,12 +398,24 @@ def test_contact_loop_not_converged_without_friction(tmp_path):
 
 
 def test_mumps_failure(tmp_path):
-    # a negative work space increase makes MUMPS fail at factorisation (INFOG(1) = -9)
-    line, d = _run_not_converged(tmp_path, GOOD, "-mat_mumps_icntl_14", "-99")
+    # a memory limit of 1 MB per process makes MUMPS fail at factorisation (INFOG(1) = -19)
+    # on 40 x 40 cells (about 10 000 dofs)
+    bigger = edited(GOOD, ("rectangle = { nx = 4, ny = 4 }", "rectangle = { nx = 40, ny = 40 }"))
+    line, d = _run_not_converged(tmp_path, bigger, "-mat_mumps_icntl_23", "1")
     assert d["loop"] == "linear solver"
-    assert d["linear_solver"]["mumps_infog1"] == -9
-    assert "the linear solver failed (DIVERGED_PCSETUP_FAILED, MUMPS INFOG(1) = -9)" in line
-    assert "raise -mat_mumps_icntl_14" in line
+    assert d["linear_solver"]["mumps_infog1"] == -19
+    assert "the linear solver failed (DIVERGED_PCSETUP_FAILED, MUMPS INFOG(1) = -19)" in line
+    assert "raise it" in line
+
+
+def test_mumps_short_of_work_space_is_given_more(tmp_path):
+    # a negative work space increase (-99 %) leaves MUMPS short of work space (INFOG(1) = -9);
+    # ICNTL(14) is doubled from at least 10 %: at 20 % the run converges, with a warning
+    case = write_case(tmp_path, GOOD)
+    out = tmp_path / "out"
+    proc = run_cli(["run", case, "-o", out, "-mat_mumps_icntl_14", "-99"], timeout=TIMEOUT)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert "-mat_mumps_icntl_14 was raised to 20 %" in proc.stderr
 
 
 def test_forced_contact_convergence_with_friction_is_a_warning(tmp_path):

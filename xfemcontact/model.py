@@ -20,7 +20,7 @@ from xfemcontact.errors import MeshError
 from xfemcontact.fem.elasticity import hooke
 from xfemcontact.mesh import plex
 from xfemcontact.post import fields
-from xfemcontact.solver.loops import create_loops
+from xfemcontact.solver.loops import create_loops, solve_newton
 from xfemcontact.solver.newton import create_snes, matrix_format
 from xfemcontact.timing import phase, release_heap
 from xfemcontact.xfem import geometry, integration, levelset
@@ -77,6 +77,7 @@ class Model:
         self.loops = None
         self.n_jacobians = 0
         self.linear_failure = None     # see solver.loops.solve_newton
+        self.solver_warnings = []      # likewise (MUMPS work space raised)
 
     @classmethod
     def from_case(cls, case, raw=None):
@@ -259,12 +260,16 @@ class Model:
         release_heap()
         with phase("solve"):
             if self.interface is None:
-                self.snes.solve(None, self.x)
+                solve_newton(self, self.snes, self.x)
                 return self.snes.getConvergedReason()
             outer, self.contact_snes, self.loops = create_loops(self, self.snes, self.case.contact)
             self.outer_snes = outer
             outer.solve(None, self.x)
             return outer.getConvergedReason()
+
+    def run_warnings(self):
+        """Warnings of the solve: the linear solver's, then the loops' (one line each)."""
+        return list(self.solver_warnings) + (list(self.loops.warnings) if self.loops else [])
 
     def release_factors(self):
         """Free the factorisation (after the solve): post-processing reuses its memory.

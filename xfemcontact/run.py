@@ -100,7 +100,7 @@ def run(case_path, outdir=None, overwrite=False):
         reason = model.solve()
         model.release_factors()
         converged = reason > 0
-        loop_warnings = list(model.loops.warnings) if model.loops else []
+        loop_warnings = model.run_warnings()
         warn(comm, *loop_warnings)
         diagnostics = None if converged else diagnose(model, reason, outdir)
         outcomes = []

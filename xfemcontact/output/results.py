@@ -24,7 +24,7 @@ def summary(model, converged, reason, outcomes):
         "partition": model.mesh.partition,
         "iterations": iterations(model),
         "residual_history": list(model.newton_test.history if snes else []),
-        "warnings": list(model.loops.warnings) if model.loops else [],
+        "warnings": model.run_warnings(),
         "linear_solver": model.solver_info(),
         "geometry": geometry_summary(model),
         "multipliers": model.space.summary() if model.space is not None else None,

@@ -58,6 +58,8 @@ FREE_START_ITERATIONS = 3
 #: which a point keeps its status (see ContactLoop._frozen_statuses)
 FROZEN_SOLVES = 30
 MAX_FLIPS = 3
+#: factorisations redone with more MUMPS work space after INFOG(1) = -8 / -9
+WORKSPACE_RETRIES = 3
 
 
 class LoopRecord:
@@ -191,14 +193,38 @@ def solve_newton(model, newton, x):
     with a traceback.  The KSP is therefore reset: the next solve analyses and
     factorises anew.  What failed is kept in ``model.linear_failure`` (KSP reason,
     MUMPS INFOG(1)) for the diagnostics.
+
+    When MUMPS ran out of work space (INFOG(1) = -8, -9: pivoting of the
+    indefinite tangent delayed more than the analysis foresaw, which happens at
+    random on small problems over several processes) the memory relaxation
+    ICNTL(14) is doubled and Newton goes on from where it stopped, at most
+    ``WORKSPACE_RETRIES`` times, with a warning.
     """
-    newton.solve(None, x)
-    if newton.getConvergedReason() != Reason.DIVERGED_LINEAR_SOLVE:
-        return
-    ksp = newton.getKSP()
-    info = model.solver_info() or {}
-    model.linear_failure = {"ksp_reason": int(ksp.getConvergedReason()), "mumps": info.get("mumps")}
-    ksp.reset()
+    for _ in range(WORKSPACE_RETRIES + 1):
+        newton.solve(None, x)
+        if newton.getConvergedReason() != Reason.DIVERGED_LINEAR_SOLVE:
+            return
+        ksp = newton.getKSP()
+        info = model.solver_info() or {}
+        mumps = info.get("mumps") or {}
+        model.linear_failure = {"ksp_reason": int(ksp.getConvergedReason()), "mumps": info.get("mumps")}
+        ksp.reset()
+        if mumps.get("status") not in (-8, -9):
+            return
+        relaxation = _raise_workspace(newton)
+        model.solver_warnings.append(
+            f"MUMPS ran out of work space (INFOG(1) = {mumps['status']}): the memory relaxation "
+            f"-mat_mumps_icntl_14 was raised to {relaxation} % and the factorisation redone")
+
+
+def _raise_workspace(newton):
+    """Double MUMPS' memory relaxation ICNTL(14) (percent, default 20) in the options
+    database for the next factorisation of ``newton``; returns the new value."""
+    opts = PETSc.Options()
+    key = (newton.getOptionsPrefix() or "") + "mat_mumps_icntl_14"
+    value = 2 * max(opts.getInt(key, 20), 10)
+    opts.setValue(key, str(value))
+    return value
 
 
 def _line_search(snes, kind=None):
