@@ -323,7 +323,7 @@ class Model:
     def interface_post(self):
         """The interface operator that gives the results at the interface points: the
         contact one, or the probe of a ``free`` / ``bonded`` interface (None without one)."""
-        return self.interface if self.interface is not None else getattr(self, "interface_probe", None)
+        return self.interface if self.interface is not None else self.interface_probe
 
     def interface_values(self):
         """Interface point values of this process (see InterfaceOperator.point_values)."""

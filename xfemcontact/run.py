@@ -231,7 +231,7 @@ def diagnose(model, reason, outdir):
         mumps = (info.get("mumps") or {}).get("status")
     except Exception:       # no factorisation: nothing to say about it
         pass
-    failure = getattr(model, "linear_failure", None)
+    failure = model.linear_failure
     if newton_reason == R.DIVERGED_LINEAR_SOLVE and failure is not None:
         ksp_reason = failure["ksp_reason"]      # the KSP was reset since (solve_newton)
         mumps = (failure["mumps"] or {}).get("status")
