@@ -231,10 +231,8 @@ def diagnose(model, reason, outdir):
         mumps = (info.get("mumps") or {}).get("status")
     except Exception:       # no factorisation: nothing to say about it
         pass
-    failure = model.linear_failure
-    if newton_reason == R.DIVERGED_LINEAR_SOLVE and failure is not None:
-        ksp_reason = failure["ksp_reason"]      # the KSP was reset since (solve_newton)
-        mumps = (failure["mumps"] or {}).get("status")
+    if newton_reason == R.DIVERGED_LINEAR_SOLVE and model.linear_failure is not None:
+        ksp_reason = model.linear_failure["ksp_reason"]   # the KSP was reset since (solve_newton)
     changes = int(loops.status_changes[-1]) if loops is not None and loops.status_changes else None
     threshold = None
     if loops is not None and loops.threshold_changes:
