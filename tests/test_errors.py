@@ -552,10 +552,10 @@ def _case(tmp_path, text):
 
 
 def _rigid(tmp_path, text):
-    from xfemcontact import checks
+    from xfemcontact import preflight
 
     case = _case(tmp_path, text)
-    return checks.preflight(case, checks.build_mesh(case))
+    return preflight.preflight(case, preflight.build_mesh(case))
 
 
 @pytest.mark.parametrize("law", ["contact", "bonded"])
@@ -602,7 +602,7 @@ def test_heaviside_dofs_of_a_node_group_on_the_interface_hold_both_sides(tmp_pat
 
 
 def test_levelset_meets_domain_function():
-    from xfemcontact.checks import levelset_meets_domain
+    from xfemcontact.preflight import levelset_meets_domain
 
     assert levelset_meets_domain(np.array([-1.0, 2.0])) is None
     assert "does not meet the domain (LN < 0 at every node" in \
@@ -616,7 +616,7 @@ def test_levelset_meets_domain_function():
 
 def test_level_set_field_of_the_mesh_file(tmp_path):
     """interface.level_set_field: missing, not finite, of one sign (checked like a formula)."""
-    from xfemcontact import checks
+    from xfemcontact import preflight
     from xfemcontact.errors import MeshError
     from xfemcontact.mesh.generate import rectangle
 
@@ -629,15 +629,15 @@ def test_level_set_field_of_the_mesh_file(tmp_path):
     raw.source = "m.med"
     with pytest.raises(MeshError, match=r"interface.level_set_field: no nodal field 'LSN' in "
                                         r"m.med \(nodal fields: none\)"):
-        checks.preflight(case, raw)
+        preflight.preflight(case, raw)
     x, y = raw.points.T
     raw.point_data = {"LSN": (x - 5) ** 2 + (y - 11.77) ** 2 - 64.27}
-    assert checks.preflight(case, raw).warnings == []
+    assert preflight.preflight(case, raw).warnings == []
     raw.point_data["LSN"][7] = np.nan
     with pytest.raises(MeshError, match=r"'LSN' is not finite at node 7 \("):
-        checks.preflight(case, raw)
+        preflight.preflight(case, raw)
     raw.point_data["LSN"] = y + 1
-    pre = checks.preflight(case, raw)
+    pre = preflight.preflight(case, raw)
     assert not pre.interface
     assert pre.warnings == [f"{case.source}: interface.level_set_field: the interface does not "
                             f"meet the domain (LN > 0 at every node, from 1 to 11): solving "

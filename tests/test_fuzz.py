@@ -2,7 +2,7 @@
 
 Whole TOML texts, mutated at the character, token and line level, go through
 ``load_case`` and then, when they load and their mesh is small, through the
-checks made before any heavy work (``checks.build_mesh`` + ``checks.preflight``):
+checks made before any heavy work (``preflight.build_mesh`` + ``preflight.preflight``):
 nothing may escape but our documented :class:`XfcError` with a one-line,
 printable message naming the case file.  Formulas (hostile ones included) are
 fuzzed in place in a case file the same way.  tests/test_case.py fuzzes the
@@ -17,7 +17,7 @@ from pathlib import Path
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from xfemcontact import checks
+from xfemcontact import preflight
 from xfemcontact.case import Case, load_case
 from xfemcontact.errors import XfcError
 from conftest import SHARED_MESHES
@@ -55,8 +55,8 @@ def _check(path, text_loaded):
         small = (case.mesh.file is None and rect["nx"] * rect["ny"] <= 400
                  and case.mesh.refine <= 1)
         if small:
-            raw = checks.build_mesh(case)
-            pre = checks.preflight(case, raw)
+            raw = preflight.build_mesh(case)
+            pre = preflight.preflight(case, raw)
             assert all("\n" not in w for w in pre.warnings)
     except XfcError as exc:
         message = str(exc)

@@ -1,13 +1,13 @@
-"""The pointwise contact and friction law (xfemcontact.contact.law)."""
+"""The pointwise contact and friction law (xfemcontact.contact.gauss_point)."""
 
 import numpy as np
 import pytest
 
-from xfemcontact.contact import law as claw
+from xfemcontact.contact import gauss_point as claw
 
 LAWS = {
-    "semi-multiplier": claw.Law(coef_cont=100.0, coef_frot=50.0, mu=0.4, friction=True),
-    "traction": claw.Law(coef_cont=100.0, coef_frot=50.0, mu=0.4, friction=True,
+    "semi-multiplier": claw.PointLaw(coef_cont=100.0, coef_frot=50.0, mu=0.4, friction=True),
+    "traction": claw.PointLaw(coef_cont=100.0, coef_frot=50.0, mu=0.4, friction=True,
                          unknown="traction", rho_T=80.0),
 }
 

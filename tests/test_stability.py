@@ -91,7 +91,7 @@ def test_arc_sweep(null_pivot_detection, cell, mesh, tol_c, tol_f, osc_factor):
         worst["err_f"] = max(worst["err_f"], np.abs(err_f).max())
         worst["osc"] = max(worst["osc"], np.abs(curvature).max())
         worst["null"] = max(worst["null"], info["null_pivots"])
-        worst["ties"] = max(worst["ties"], model.space.n_ties)
+        worst["ties"] = max(worst["ties"], model.problem.space.n_ties)
         assert info["null_pivots"] == 0, f"MUMPS null pivots at yc = {yc}"
     print(f"\n{cell}: {N_POSITIONS} positions, max error LAGS_C {worst['err_c']:.2e} "
           f"LAGS_F1 {worst['err_f']:.2e}, largest second divided difference of LAGS_C "
@@ -109,7 +109,7 @@ def test_multiplier_space_reproduces_linear_fields(name, gradient_ties):
     every cut cell.  SSNV509 a has one weak packet at the bottom of the arc, tied by
     gradient (its vertices keep the field's variation, which a merge would flatten)."""
     model = Model(load_case(CASES / f"{name}.toml"))
-    space, mesh = model.space, model.mesh
+    space, mesh = model.problem.space, model.mesh
     xg = dict(zip(mesh.node_ids.tolist(), mesh.x.tolist()))
     # every vertex of a cut cell carries a dof, unless weak or eliminated by a gradient tie
     assert len(space.ids) == len(np.unique(space.topo.verts)) - space.n_weak - gradient_ties
@@ -131,7 +131,7 @@ def test_weak_vertices_continue_the_root_field(name):
     values would miss it by ~h^2 (and cost the arc ends of SSNV509 a half their
     LAGS_F1 accuracy)."""
     model = Model(load_case(CASES / f"{name}.toml"))
-    space, mesh = model.space, model.mesh
+    space, mesh = model.problem.space, model.mesh
     assert space.n_weak > 0
     xg = dict(zip(mesh.node_ids.tolist(), mesh.x.tolist()))
     co = space.carriers_of

@@ -7,7 +7,7 @@ interrupted (:class:`Interrupted`: 130 for SIGINT / Ctrl-C, 143 for SIGTERM).
 
 Under MPI an error is *collective* when every process raises it identically
 (everything found while reading the case file, the output folder check, the
-checks of :mod:`xfemcontact.checks`, non-convergence): the command line then
+checks of :mod:`xfemcontact.preflight`, non-convergence): the command line then
 reports it once and every process leaves with its exit code.  Any other error
 (``collective = False``) may be raised by one process only: it is reported by
 that process and the whole run is aborted (``MPI_Abort``) so that no process

@@ -41,6 +41,7 @@ import keyword
 from dataclasses import dataclass, field
 
 from xfemcontact.case.formula import CONSTANTS, FUNCTIONS
+from xfemcontact.contact import laws
 
 NODE_FIELDS = ("DX", "DY")
 CELL_FIELDS = ("SIXX", "SIYY", "SIXY")
@@ -58,7 +59,7 @@ CONDITION_VARIABLES = {
 MESH_CELLS = ("QUAD8", "TRIA6")
 DIAGONALS = ("right", "left", "alternate")
 MODELS = ("C_PLAN", "D_PLAN")
-LAWS = ("contact", "bonded", "free")
+LAWS = laws.NAMES
 TEST_TYPES = ("MIN", "MAX", "VALUE", "SOMM_ABS", "MAX_ERROR")
 CRITERIA = ("ABSOLU", "RELATIF")
 OUTPUT_FORMATS = ("xdmf", "vtu", "med")

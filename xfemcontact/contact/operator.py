@@ -8,18 +8,23 @@ jump at a point is ``[u] = 2 sum_j N_j h_j`` (shifted Heaviside), so only
 Heaviside dofs enter.  Values are gathered from the global solution with one
 VecScatter (a merged multiplier may live on another process) and contributions
 are added with ADD_VALUES (PETSc sends the off-process ones).
+
+The operator holds no contact state: statuses and thresholds are a
+:class:`~xfemcontact.contact.problem.PointState` passed to each call, owned by
+the :class:`~xfemcontact.contact.problem.ContactProblem`.
 """
 import numpy as np
 
 from xfemcontact._petsc import PETSc
-from xfemcontact.contact import law as claw
+from xfemcontact.contact import gauss_point as claw
 from xfemcontact.xfem import integration
 
 
 class InterfaceOperator:
-    def __init__(self, mesh, geo, layout, space, rep_index, law, pts, contact_init=True,
-                 seuil_init=None):
-        """``pts``: :class:`integration.SegmentPoints` of ``geo.segments()``."""
+    def __init__(self, mesh, geo, layout, space, rep_index, law, pts):
+        """``pts``: :class:`integration.SegmentPoints` of ``geo.segments()``; ``rep_index``
+        ``(k, m)``: global LAGS_C index of the carriers of each segment cell (-1 pad);
+        ``law``: the :class:`~xfemcontact.contact.gauss_point.PointLaw`."""
         self.mesh, self.layout, self.law = mesh, layout, law
         el = mesh.element
         segs = geo.segments()
@@ -36,15 +41,6 @@ class InterfaceOperator:
                                     np.where(lam_idx >= 0, lam_idx + 1, -1)], axis=1)
         self.nn, self.nv = el.nn, lam_idx.shape[1]
         self._scatter_setup()
-        k, ng = self.pts.w.shape
-        self.chi = np.full((k, ng), 1 if contact_init else 0, dtype=np.int64)
-        self.s = np.full((k, ng), float(seuil_init) if seuil_init is not None else 0.0)
-        # friction statuses imposed on the points (0 stick, +-1 slip, NaN free), or None:
-        # the stick predictor and frozen statuses, see xfemcontact.solver.loops
-        self.held = None
-        # friction without bound (every point in contact sticks): the fallback start
-        # when the frictionless one has no solution, see xfemcontact.solver.loops
-        self.unbounded = False
 
     # -- gathering ----------------------------------------------------------
     def _scatter_setup(self):
@@ -88,22 +84,18 @@ class InterfaceOperator:
         return a_n, a_t
 
     # -- residual and tangent -------------------------------------------------
-    def terms(self, x):
+    def terms(self, x, state):
+        """Point terms of the law at ``x`` for the statuses and thresholds of ``state``."""
         g, ut, lam, Lam = self.point_fields(self.element_values(x))
-        s, held = self.s, self.held
-        if self.unbounded:
+        s, held = state.s, state.held
+        if state.unbounded:
             # held in stick, the solution does not depend on s; mu s = -1 Pa makes
             # LAGS_F1 the tangential traction in Pa meanwhile
             s, held = np.full(s.shape, -1.0 / self.law.mu), np.zeros(s.shape)
-        return claw.point_terms(self.law, self.chi, s, g, ut, lam, Lam, held)
+        return claw.point_terms(self.law, state.chi, s, g, ut, lam, Lam, held)
 
-    def friction_status(self, x):
-        """``(k, ng)`` friction status at ``x``: 0 stick, +-1 slip direction."""
-        g, ut, lam, Lam = self.point_fields(self.element_values(x))
-        return claw.friction_status(self.law, self.chi, self.s, ut, Lam)
-
-    def add_residual(self, x, f):
-        t = self.terms(x)
+    def add_residual(self, x, f, state):
+        t = self.terms(x, state)
         w = self.pts.w
         a_n, a_t = self._operators()
         Rh = np.einsum("kq,kqd->kd", w * t["rg"], a_n) + np.einsum("kq,kqd->kd", w * t["rt"], a_t)
@@ -115,9 +107,9 @@ class InterfaceOperator:
         f.assemblyBegin()
         f.assemblyEnd()
 
-    def element_matrices(self, x):
+    def element_matrices(self, x, state):
         """Interface element tangents ``(k, nd, nd)`` at ``x``."""
-        t = self.terms(x)
+        t = self.terms(x, state)
         w = self.pts.w
         a_n, a_t = self._operators()
         phi = self.phi
@@ -153,37 +145,8 @@ class InterfaceOperator:
         f.assemblyBegin()
         f.assemblyEnd()
 
-    # -- statuses -------------------------------------------------------------
-    def update_status(self, x):
-        """Apply the status test; returns the number of points (all processes) that changed."""
-        g, ut, lam, Lam = self.point_fields(self.element_values(x))
-        new = claw.update_status(self.law, self.chi, g, lam)
-        changed = int((new != self.chi).sum())
-        self.chi = new
-        return self.mesh.comm.tompi4py().allreduce(changed)
-
-    def update_threshold(self, x):
-        """s <- LAGS_C.  Returns the mask ``(k, ng)`` of points in contact whose friction
-        this update switches on or bounds for the first time (threshold zero or
-        unbounded before, not zero now)."""
-        g, ut, lam, Lam = self.point_fields(self.element_values(x))
-        fresh = (self.s == 0) | self.unbounded
-        self.unbounded = False
-        self.s = claw.threshold(lam)
-        return (self.chi == 1) & fresh & (self.s != 0)
-
-    def counts(self):
-        """Points in contact and in slip (all processes)."""
-        mpi = self.mesh.comm.tompi4py()
-        return mpi.allreduce(int(self.chi.sum())), mpi.allreduce(int(self.chi.size))
-
-    def multiplier_values(self, x):
-        """LAGS_C dof values held by this process's interface elements (for loop tests)."""
-        ve = self.element_values(x)
-        return ve[:, 2 * self.nn:2 * self.nn + self.nv][self.gidx[:, 2 * self.nn:2 * self.nn + self.nv] >= 0]
-
     # -- results at the interface points ----------------------------------------
-    def point_values(self, x):
+    def point_values(self, x, state):
         """Values at the ends (P1, P2) of every segment: where the interface crosses
         cell edges (code_aster's NFISSU points), one entry per point and cell.
 
@@ -200,7 +163,7 @@ class InterfaceOperator:
         out = {k: [] for k in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding",
                                "cell", "end")}
         g_all, ut_all, lam_all, Lam_all = self.point_fields(ve)
-        t = self.terms(x)
+        t = self.terms(x, state)
         X = el.map_points(xc, segs.nodes)                          # physical P1, P2, P3
         for end, s in ((0, -1.0), (1, 1.0)):
             xi = segs.nodes[:, end]
@@ -221,7 +184,7 @@ class InterfaceOperator:
                                                        np.einsum("ka,ka->k", phi, ve[:, 2 * nn + nv:])))
             out["gap"].append(jx * n[:, 0] + jy * n[:, 1])
             out["slip"].append(jx * tau[:, 0] + jy * tau[:, 1])
-            out["contact"].append(self.chi[:, q].astype(float))
+            out["contact"].append(state.chi[:, q].astype(float))
             out["sliding"].append(t["slip"][:, q].astype(float))
             out["cell"].append(mesh.cell_ids[segs.cells])
             out["end"].append(np.full(len(segs), end))

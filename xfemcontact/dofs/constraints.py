@@ -5,7 +5,7 @@ groups.  At an enriched node the displacement must hold on both sides of the
 interface wherever the interface reaches the constrained boundary, so its
 Heaviside dofs of the same components are fixed to zero when an edge of the
 group through the node touches the interface (or when the group is a group of
-nodes).  The "bonded" interface law fixes every Heaviside dof (zero jump).
+nodes).  A law with ``zero_jump`` (bonded) fixes every Heaviside dof.
 """
 import numpy as np
 
@@ -18,10 +18,11 @@ def _touching_edges(mesh, phi, edges):
     return ~(np.all(p > 0, axis=1) | np.all(p < 0, axis=1))
 
 
-def fixed_components(mesh, case, geo, values_fn):
+def fixed_components(mesh, case, geo, law, values_fn):
     """Imposed components ``(n, 4)`` (DX, DY, H1X, H1Y) and DX/DY values ``(n, 2)``.
 
-    ``values_fn(nodes, formula)`` evaluates a formula at nodes.
+    ``law``: the interface law (None without interface); ``values_fn(nodes,
+    formula)`` evaluates a formula at nodes.
     """
     n = len(mesh.x)
     fixed = np.zeros((n, 4), dtype=bool)
@@ -36,7 +37,7 @@ def fixed_components(mesh, case, geo, values_fn):
                 fixed[hnodes, 2 + c] = True
     if geo is not None:
         fixed[:, 2:] &= geo.enriched[:, None]
-        if case.interface is not None and case.interface.law == "bonded":
+        if law is not None and law.zero_jump:
             fixed[:, 2:] |= geo.enriched[:, None]
     return fixed, values
 

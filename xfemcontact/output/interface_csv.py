@@ -44,11 +44,12 @@ def build(model):
     v = model.interface_values()
     if v is None:
         return None
-    op, mesh = model.interface_post, model.mesh
-    k = len(op.segments)
+    problem, mesh = model.problem, model.mesh
+    k = len(problem.segments)
     ends = {key: np.asarray(a).reshape(2, k).T for key, a in v.items()}       # (k, 2): P1, P2
-    seg = {"cell": mesh.cell_ids[op.segments.cells], "length": op.pts.w.sum(axis=1),
-           "xc": mesh.x[mesh.cell_nodes[op.segments.cells]], "nodes": op.segments.nodes}
+    segs = problem.segments
+    seg = {"cell": mesh.cell_ids[segs.cells], "length": problem.points.w.sum(axis=1),
+           "xc": mesh.x[mesh.cell_nodes[segs.cells]], "nodes": segs.nodes}
     parts = model.comm.tompi4py().gather((ends, seg), root=0)
     if parts is None:
         return None
@@ -64,7 +65,7 @@ def tabulate(ends, seg, el, reference):
     """Chain the segments and lay out the rows.
 
     ``ends``: point values ``(K, 2)`` at (P1, P2) of every segment (see
-    ``InterfaceOperator.point_values``); ``seg``: ``cell (K,)``, ``length (K,)``
+    ``InterfaceProblem.point_values``); ``seg``: ``cell (K,)``, ``length (K,)``
     (m), ``xc (K, nn, 2)`` parent coordinates, ``nodes (K, 3, 2)`` segment
     reference nodes; ``reference``: {field: Formula}.
     """

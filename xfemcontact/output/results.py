@@ -8,7 +8,7 @@ MESHIO_CELL = {"QUAD8": "quad8", "TRIA6": "triangle6"}
 
 def summary(model, converged, reason, outcomes):
     """The content of results.json (a dict; rank 0's values)."""
-    case, snes = model.case, model.snes
+    case, solver = model.case, model.solver
     mpi = model.comm.tompi4py()
     return {
         "xfemcontact": __version__,
@@ -22,32 +22,18 @@ def summary(model, converged, reason, outcomes):
                  "nodes": mpi.allreduce(int(model.mesh.node_owned.sum()))},
         "dofs": dict(model.layout.counts(), total=model.layout.global_size),
         "partition": model.mesh.partition,
-        "iterations": iterations(model),
-        "residual_history": list(model.newton_test.history if snes else []),
+        "iterations": solver.iterations() if solver else {"newton": 0},
+        "residual_history": list(solver.newton_test.history if solver else []),
         "warnings": model.run_warnings(),
         "linear_solver": model.solver_info(),
         "geometry": geometry_summary(model),
-        "multipliers": model.space.summary() if model.space is not None else None,
+        "multipliers": model.problem.summary() if model.problem is not None else None,
         "timings": {k: round(v, 4) for k, v in timing.TIMINGS.items()},
         "solver_events": timing.solver_events(model.comm),
         "memory": {"peak_mb_per_process": timing.peak_memory_mb(model.comm)},
         "tests": [o.as_dict() for o in outcomes],
         "interface": interface_table(model),
     }
-
-
-def iterations(model):
-    """Iteration counts of every loop."""
-    loops = model.loops
-    if loops is None:
-        return {"newton": model.snes.getIterationNumber() if model.snes else 0}
-    return {"newton": int(sum(loops.newton)), "newton_per_solve": list(loops.newton),
-            "contact": list(loops.contact), "friction": int(loops.friction),
-            "stick_predictor_steps": int(sum(loops.newton_predictor)),
-            "line_search_retries": int(loops.line_search_retries),
-            "frozen_status_solves": int(loops.frozen_solves),
-            "status_changes": list(loops.status_changes),
-            "threshold_changes": [float(c) for c in loops.threshold_changes]}
 
 
 def geometry_summary(model):
@@ -125,13 +111,14 @@ def write_outputs(folder, model, converged, reason, outcomes, warnings=()):
         warnings += table.warnings
     if model.case.output.plots:
         case = model.case
-        criterion = case.newton.resi_glob_rela * model.load_norm if model.snes else None
-        resi_frot = getattr(case.contact, "resi_frot", None) if model.loops else None
+        criterion = case.newton.resi_glob_rela * model.load_norm if model.solver else None
+        friction = bool(model.problem is not None and model.problem.friction)
+        resi_frot = case.contact.resi_frot if model.solver and model.solver.record else None
         title = case.title if converged else f"{case.title} -- NOT CONVERGED (last iterate)"
         files += plots.write(folder, title, post=post, table=table,
                              history=summary_now["residual_history"], iterations=summary_now["iterations"],
                              criterion=criterion, resi_frot=resi_frot, young=case.material.E,
-                             friction=bool(model.has_contact and model.law.friction))
+                             friction=friction)
     report.write(folder, summary_now, files, case_source=model.case.source, warnings=warnings)
 
 

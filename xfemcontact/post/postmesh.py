@@ -167,37 +167,21 @@ def interface_samples(model):
     """Multipliers and statuses at the interface points of every local segment
     (its ends, mid-point and quarter points).  Collective (reads remote dofs).
 
-    Returns a dict of flat arrays: x, y (m), cell (input id), LAGS_C (Pa),
-    LAGS_F1, contact, sliding; None without contact.
+    Returns a dict of flat arrays: x, y (m), cell (input cell id), LAGS_C (Pa),
+    LAGS_F1, contact, sliding; None without multipliers.
     """
-    op = model.interface
-    if op is None:
+    problem = model.problem
+    if problem is None or problem.space is None:
         return None
     mesh, el = model.mesh, model.mesh.element
-    segs = op.segments
-    ve = op.element_values(model.x)
-    terms = op.terms(model.x)
-    nn, nv = op.nn, op.nv
+    segs = problem.segments
     xi, x, _ = segment_curve(el, mesh.x[mesh.cell_nodes[segs.cells]], segs.nodes, SEGMENT_POINTS)
-    phi = model.space.functions(el.shape_linear(xi))                         # (k, 5, m)
-    near = np.argmin(np.abs(op.pts.s[None, :] - SEGMENT_POINTS[:, None]), axis=1)   # (5,)
-    k = len(segs)
-    lam = np.einsum("kpa,ka->kp", phi, ve[:, 2 * nn:2 * nn + nv])
-    fric = np.einsum("kpa,ka->kp", phi, ve[:, 2 * nn + nv:])
-    return {"x": x[..., 0].ravel(), "y": x[..., 1].ravel(),
-            "cell": np.repeat(mesh.cell_ids[segs.cells], len(SEGMENT_POINTS)),
-            "LAGS_C": lam.ravel(),
-            "LAGS_F1": _semi_multiplier(op.law, lam, fric).ravel(),
-            "contact": op.chi[:, near].astype(float).reshape(k * len(near)),
-            "sliding": terms["slip"][:, near].astype(float).reshape(k * len(near))}
-
-
-def _semi_multiplier(law, lam, fric):
-    """LAGS_F1 from the friction dof's interpolated value (the law decides what it holds)."""
-    from xfemcontact.contact import law as claw
-
-    convert = getattr(claw, "semi_multiplier", None)
-    return fric if convert is None else convert(law, claw.threshold(lam), fric)
+    near = np.argmin(np.abs(problem.points.s[None, :] - SEGMENT_POINTS[:, None]), axis=1)   # (5,)
+    v = problem.segment_values(model.x, xi, near)
+    out = {"x": x[..., 0].ravel(), "y": x[..., 1].ravel(),
+           "cell": np.repeat(mesh.cell_ids[segs.cells], len(SEGMENT_POINTS))}
+    out.update({k: a.ravel() for k, a in v.items()})
+    return out
 
 
 # -- the whole mesh on rank 0 ----------------------------------------------------------

@@ -17,9 +17,9 @@ from xfemcontact._petsc import PETSc
 def _gathered_system(model, values):
     """Mass matrix of the carriers' traces and right-hand sides of ``values`` (list of
     (k, ng) arrays at the interface Gauss points), summed over every process."""
-    op = model.interface
-    w, phi = op.pts.w, op.phi                                    # (k, ng), (k, ng, m)
-    dof = model.rep_index                                        # (k, m) global LAGS_C index
+    problem = model.problem
+    w, phi = problem.points.w, problem.phi                      # (k, ng), (k, ng, m)
+    dof = problem.rep_index                                      # (k, m) global LAGS_C index
     M = np.einsum("kq,kqa,kqb->kab", w, phi, phi)
     rows = np.broadcast_to(dof[:, :, None], M.shape)
     cols = np.broadcast_to(dof[:, None, :], M.shape)
@@ -47,13 +47,14 @@ def best_errors(model, lags_c, lags_f1):
     friction unknown is projected as the model solves for it: the tangential
     traction ``mu LAGS_C LAGS_F1`` (Pa) when it is the traction, else LAGS_F1.  The
     projections are put in a solution vector and read at the interface points by
-    :meth:`InterfaceOperator.point_values`, like the computed ones.  Returns
+    :meth:`InterfaceProblem.point_values`, like the computed ones.  Returns
     ``{"LAGS_C": e_c, "LAGS_F1": e_f}`` over every process.
     """
     from mpi4py import MPI      # initialised by PETSc by now (see _petsc: PML choice first)
 
-    op, law = model.interface, model.law
-    xg = op.pts.x
+    problem = model.problem
+    law = problem.law
+    xg = problem.points.x
     c = lags_c(x=xg[..., 0], y=xg[..., 1])
     f = lags_f1(x=xg[..., 0], y=xg[..., 1])
     ids, A, (bc, bf) = _gathered_system(model, [c, law.mu * c * f if law.unknown == "traction" else f])
@@ -65,7 +66,7 @@ def best_errors(model, lags_c, lags_f1):
     x.setValues(np.r_[ids[own], ids[own] + 1].astype(PETSc.IntType),
                 np.r_[solve(bc)[own], solve(bf)[own]])
     x.assemble()
-    v = op.point_values(x)
+    v = problem.point_values(x)
     mpi = model.comm.tompi4py()
     return {name: mpi.allreduce(float(np.abs(v[name] - ref(x=v["x"], y=v["y"])).max(initial=0.0)),
                                 op=MPI.MAX)

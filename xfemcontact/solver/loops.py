@@ -89,15 +89,16 @@ def _python_snes(comm, prefix, context, max_it, rtol=0.0):
 class ContactLoop:
     """Status fixed point around Newton."""
 
-    def __init__(self, model, newton, record):
-        self.model, self.newton, self.record = model, newton, record
+    def __init__(self, solver, problem):
+        self.solver, self.problem = solver, problem
+        self.newton, self.record = solver.newton, solver.record
         self.retry = True            # off while the frictionless start is being tried
 
     def view(self, snes, viewer):
         viewer.printfASCII("contact status loop (code_aster ITER_CONT_MAXI)\n")
 
     def solve(self, snes, b, x):
-        op, newton = self.model.interface, self.newton
+        problem, newton = self.problem, self.newton
         max_it = snes.getTolerances()[3]
         for k in range(1, max_it + 1):
             self._newton(x)
@@ -106,7 +107,7 @@ class ContactLoop:
                 snes.setConvergedReason(Reason.DIVERGED_INNER)
                 self.record.contact.append(k)
                 return
-            changed = op.update_status(x)
+            changed = problem.update_status(x)
             self.record.status_changes.append(changed)
             snes.setIterationNumber(k)
             snes.setFunctionNorm(float(changed))
@@ -116,7 +117,7 @@ class ContactLoop:
                 snes.setConvergedReason(Reason.CONVERGED_FNORM_ABS)
                 return
         self.record.contact.append(max_it)
-        if self.model.law.friction:
+        if problem.friction:
             self.record.warnings.append(
                 f"contact statuses still changing after ITER_CONT_MAXI = {max_it} iterations "
                 f"({changed} points): convergence forced, as code_aster does with friction "
@@ -129,9 +130,9 @@ class ContactLoop:
         """Newton from ``x``.  With friction, a full-step Newton that fails is redone once
         from the same start with a backtracking line search (module docstring)."""
         newton = self.newton
-        retry = self.model.law.friction and self.retry
+        retry = self.problem.friction and self.retry
         start = x.copy() if retry else None
-        solve_newton(self.model, newton, x)
+        solve_newton(self.solver, x)
         self.record.newton.append(newton.getIterationNumber())
         if newton.getConvergedReason() > 0 or start is None:
             return
@@ -139,7 +140,7 @@ class ContactLoop:
             return
         start.copy(x)
         with _newton_settings(newton, line_search="bt"):
-            solve_newton(self.model, newton, x)
+            solve_newton(self.solver, x)
         self.record.newton.append(newton.getIterationNumber())
         self.record.line_search_retries += 1
         if newton.getConvergedReason() > 0:
@@ -155,24 +156,24 @@ class ContactLoop:
         statuses updated from the result until they stop changing, then Newton with
         the real law from there.  A point that has changed ``MAX_FLIPS`` times keeps
         its status (no cycling)."""
-        op, newton = self.model.interface, self.newton
-        mpi = self.model.comm.tompi4py()
-        status = op.friction_status(x)
+        problem, newton = self.problem, self.newton
+        mpi = problem.comm.tompi4py()
+        status = problem.friction_statuses(x)
         flips = np.zeros(status.shape, dtype=np.int64)
         for _ in range(FROZEN_SOLVES):
-            with _held(op, status):
-                solve_newton(self.model, newton, x)
+            with problem.holding(status):
+                solve_newton(self.solver, x)
             self.record.newton.append(newton.getIterationNumber())
             self.record.frozen_solves += 1
             if newton.getConvergedReason() <= 0:
                 break
-            new = op.friction_status(x)
+            new = problem.friction_statuses(x)
             flips += new != status
             new = np.where(flips > MAX_FLIPS, status, new)
             if not mpi.allreduce(int(np.count_nonzero(new != status))):
                 break
             status = new
-        solve_newton(self.model, newton, x)
+        solve_newton(self.solver, x)
         self.record.newton.append(newton.getIterationNumber())
         if newton.getConvergedReason() > 0:
             self._warn_once("Newton did not converge in a threshold iteration, with full steps nor with "
@@ -184,14 +185,14 @@ class ContactLoop:
             self.record.warnings.append(text)
 
 
-def solve_newton(model, newton, x):
-    """``newton.solve`` from ``x``; a failed factorisation is dropped after it.
+def solve_newton(solver, x):
+    """``solver.newton.solve`` from ``x``; a failed factorisation is dropped after it.
 
     When MUMPS fails (a numerically singular matrix, INFOG(1) = -10) PETSc 3.18's
     interface skips every later numeric factorisation of that factor, and the
     next solve (a fallback from the same start) would stop on MUMPS INFOG(1) = -3
     with a traceback.  The KSP is therefore reset: the next solve analyses and
-    factorises anew.  What failed is kept in ``model.linear_failure`` (KSP reason,
+    factorises anew.  What failed is kept in ``solver.linear_failure`` (KSP reason,
     MUMPS INFOG(1)) for the diagnostics.
 
     When MUMPS ran out of work space (INFOG(1) = -8, -9: pivoting of the
@@ -200,19 +201,20 @@ def solve_newton(model, newton, x):
     ICNTL(14) is doubled and Newton goes on from where it stopped, at most
     ``WORKSPACE_RETRIES`` times, with a warning.
     """
+    newton = solver.newton
     for _ in range(WORKSPACE_RETRIES + 1):
         newton.solve(None, x)
         if newton.getConvergedReason() != Reason.DIVERGED_LINEAR_SOLVE:
             return
         ksp = newton.getKSP()
-        info = model.solver_info() or {}
+        info = solver.info() or {}
         mumps = info.get("mumps") or {}
-        model.linear_failure = {"ksp_reason": int(ksp.getConvergedReason()), "mumps": info.get("mumps")}
+        solver.linear_failure = {"ksp_reason": int(ksp.getConvergedReason()), "mumps": info.get("mumps")}
         ksp.reset()
         if mumps.get("status") not in (-8, -9):
             return
         relaxation = _raise_workspace(newton)
-        model.solver_warnings.append(
+        solver.linear_warnings.append(
             f"MUMPS ran out of work space (INFOG(1) = {mumps['status']}): the memory relaxation "
             f"-mat_mumps_icntl_14 was raised to {relaxation} % and the factorisation redone")
 
@@ -254,34 +256,23 @@ def _newton_settings(newton, max_it=None, line_search=None):
             _line_search(newton, old_search)
 
 
-@contextmanager
-def _held(op, statuses):
-    """The interface operator with friction statuses imposed for a block (see
-    :func:`xfemcontact.contact.law.friction_status`)."""
-    op.held = statuses
-    try:
-        yield
-    finally:
-        op.held = None
-
-
 class FrictionLoop:
     """Threshold fixed point around the contact loop."""
 
-    def __init__(self, model, contact, record):
-        self.model, self.contact, self.record = model, contact, record
+    def __init__(self, solver, problem, contact):
+        self.solver, self.problem, self.contact = solver, problem, contact
+        self.record = solver.record
 
     def view(self, snes, viewer):
         viewer.printfASCII("friction threshold loop (code_aster ITER_FROT_MAXI, RESI_FROT)\n")
 
     def solve(self, snes, b, x):
-        model = self.model
+        problem = self.problem
         rtol, _, _, max_it = snes.getTolerances()
-        previous = None
         for k in range(1, max_it + 1):
             if k > 1:
-                switched_on = model.interface.update_threshold(x)
-                if model.comm.tompi4py().allreduce(int(switched_on.sum())):
+                switched_on = problem.update_threshold(x)
+                if problem.comm.tompi4py().allreduce(int(switched_on.sum())):
                     self._stick_predictor(switched_on, x)
                 self.contact.solve(None, x)
             else:
@@ -291,28 +282,25 @@ class FrictionLoop:
                 snes.setConvergedReason(Reason.DIVERGED_INNER)
                 self.record.friction = k
                 return
-            lam = model.lags_c(x)
-            change = _relative_change(model.comm, lam, previous)
+            change = problem.threshold_change(x, first=k == 1)
             self.record.threshold_changes.append(change)
             snes.setIterationNumber(k)
             snes.setFunctionNorm(change)
             snes.monitor(k, change)
             self.record.friction = k
-            if previous is not None and change < rtol:
+            if k > 1 and change < rtol:
                 snes.setConvergedReason(Reason.CONVERGED_FNORM_RELATIVE)
                 return
-            previous = lam
         snes.setConvergedReason(Reason.DIVERGED_MAX_IT)
 
     def _first_iteration(self, x):
         """The contact loop with the initial thresholds; a frictionless start that
         finds no equilibrium is redone with friction unbounded (module docstring)."""
-        op, newton = self.model.interface, self.model.snes
-        mpi = self.model.comm.tompi4py()
-        if mpi.allreduce(int(np.count_nonzero(op.s))):
+        problem, newton = self.problem, self.solver.newton
+        if problem.has_thresholds():
             self.contact.solve(None, x)
             return
-        x0, chi0 = x.copy(), op.chi.copy()
+        x0, state0 = x.copy(), problem.snapshot()
         loop = self.contact.getPythonContext()
         loop.retry = False
         try:
@@ -323,8 +311,8 @@ class FrictionLoop:
         if self.contact.getConvergedReason() > 0:
             return
         x0.copy(x)
-        op.chi = chi0
-        op.unbounded = True
+        problem.restore(state0)
+        problem.unbound_friction()
         self.record.warnings.append(
             "the frictionless start (SEUIL_INIT absent or 0) has no equilibrium: a part is held only by "
             "friction; the first threshold iteration was redone with every point in contact "
@@ -333,37 +321,23 @@ class FrictionLoop:
 
     def _stick_predictor(self, held, x):
         """One Newton step with the points ``held`` (mask) in the stick branch."""
-        newton = self.model.snes
-        with _held(self.model.interface, np.where(held, 0.0, np.nan)), _newton_settings(newton, max_it=1):
-            solve_newton(self.model, newton, x)
+        newton = self.solver.newton
+        with self.problem.holding(np.where(held, 0.0, np.nan)), _newton_settings(newton, max_it=1):
+            solve_newton(self.solver, x)
         self.record.newton_predictor.append(newton.getIterationNumber())
 
 
-def _relative_change(comm, lam, previous):
-    """max |lam - previous| / max |lam| over all processes (1 for the first iteration)."""
-    mpi = comm.tompi4py()
-    if previous is None:
-        return 1.0
-    num = mpi.allreduce(float(np.abs(lam - previous).max(initial=0.0)), op=_max())
-    den = mpi.allreduce(float(np.abs(lam).max(initial=0.0)), op=_max())
-    return num / den if den > 0 else (0.0 if num == 0 else np.inf)
-
-
-def _max():
-    from mpi4py import MPI
-
-    return MPI.MAX
-
-
-def create_loops(model, newton, case_contact):
-    """The outermost loop SNES (friction if friction is on, else contact) and the record."""
-    record = LoopRecord()
-    comm = model.comm
-    contact = _python_snes(comm, "contact_", ContactLoop(model, newton, record), case_contact.iter_cont_maxi)
+def create_loops(solver, problem, case_contact):
+    """The SNES of the outer loops ``problem.loops`` needs: ``(outermost, contact)``,
+    both None without loops."""
+    if "contact" not in problem.loops:
+        return None, None
+    comm = problem.comm
+    contact = _python_snes(comm, "contact_", ContactLoop(solver, problem), case_contact.iter_cont_maxi)
     contact.setFromOptions()
-    if not model.law.friction:
-        return contact, contact, record
-    friction = _python_snes(comm, "friction_", FrictionLoop(model, contact, record),
+    if "friction" not in problem.loops:
+        return contact, contact
+    friction = _python_snes(comm, "friction_", FrictionLoop(solver, problem, contact),
                             case_contact.iter_frot_maxi, case_contact.resi_frot)
     friction.setFromOptions()
-    return friction, contact, record
+    return friction, contact

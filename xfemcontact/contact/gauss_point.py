@@ -1,4 +1,4 @@
-"""code_aster's continuous augmented-Lagrangian contact with Coulomb friction, pointwise.
+"""code_aster's continuous augmented-Lagrangian contact with Coulomb friction, at Gauss points.
 
 At an interface Gauss point, with the jump [u] = u+ - u- (m), the unit normal
 n (from - to +) and code_aster's tangent tau (non-negative x-component):
@@ -41,7 +41,7 @@ THRESHOLD_ZERO = 1e-11     # |s| below this (Pa) is taken as 0 (code_aster XREAC
 
 
 @dataclass
-class Law:
+class PointLaw:
     coef_cont: float       # rho_n, Pa/m
     coef_frot: float       # rho_t, 1/m
     mu: float              # Coulomb coefficient (0: frictionless)

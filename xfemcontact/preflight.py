@@ -28,11 +28,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from xfemcontact.contact import laws
 from xfemcontact.errors import CaseError, FormulaError, GeometryError, MeshError, XfcError
-
-#: |LN| <= ROUNDOFF * (largest |LN| in the cells holding the node) counts as 0
-#: (rule 1 of xfemcontact.xfem.levelset.readjust)
-ROUNDOFF = 1e-12
+from xfemcontact.mesh.build import build_raw_mesh
+from xfemcontact.xfem.levelset import ROUNDOFF     # rule 1 of the readjustment
 #: positions closer than this fraction of the mesh size are the same position
 SAME_POSITION = 1e-9
 
@@ -53,10 +52,8 @@ class Preflight:
 def build_mesh(case, comm=None):
     """The case's input mesh on rank 0 (None elsewhere); a failure is a collective MeshError.
 
-    Wraps :func:`xfemcontact.model.build_raw_mesh`.
+    Wraps :func:`xfemcontact.mesh.build.build_raw_mesh`.
     """
-    from xfemcontact.model import build_raw_mesh
-
     rank = comm.rank if comm is not None else 0
     outcome = raw = None
     if rank == 0:
@@ -136,7 +133,7 @@ def _preflight(case, raw):
                                                    source=case.source, key=key, interior=interior)
             if problem:
                 raise GeometryError(problem)
-    law = itf.law if itf is not None and phi is not None else None
+    law = laws.get(itf.law) if itf is not None and phi is not None else None
     problem = rigid_body_modes(case, raw, phi, law, interior=interior)
     if problem:
         raise CaseError(problem)
@@ -269,11 +266,11 @@ def rigid_body_modes(case, raw, phi=None, law=None, interior=None):
     """A one-line error message when a rigid-body motion is left free, else None.
 
     Bodies: the connected parts of the mesh (cells sharing an edge); with an
-    interface of ``law = "free"`` (and ``phi``, LN at the nodes of ``raw``),
-    each side of it is a separate body.  With "bonded" the interface is
-    glued; with "contact" it is taken as connected too, although it transmits
-    compression only: a body held by contact alone is accepted (if the contact
-    opens, the solve fails and says so).
+    interface whose ``law`` (an :class:`~xfemcontact.contact.laws.InterfaceLaw`)
+    has ``separate_bodies`` (``free``; and ``phi``, LN at the nodes of ``raw``),
+    each side of it is a separate body.  Other laws connect the sides ("contact"
+    too, although it transmits compression only: a body held by contact alone is
+    accepted; if the contact opens, the solve fails and says so).
 
     A node of a Dirichlet group holds the body of its side (LN >= 0: the +
     side); where the group's edge reaches the interface, or for a node group,
@@ -285,7 +282,7 @@ def rigid_body_modes(case, raw, phi=None, law=None, interior=None):
     """
     cells, nv, x = raw.cells, raw.n_vertices_per_cell, raw.points
     nc = len(cells)
-    separate = law == "free" and phi is not None
+    separate = law is not None and law.separate_bodies and phi is not None
     if separate:
         pc = phi[cells]
         has = np.stack([(pc < 0).any(axis=1), (pc > 0).any(axis=1)], axis=1)   # [-, +]

@@ -1,0 +1,51 @@
+"""Where the multipliers of each interface element live in the global system.
+
+The carriers of a segment cell (see :mod:`xfemcontact.contact.space`) are
+vertices that may be owned by another process (merged vertices share the dof
+of their representative).  This module finds the global LAGS_C index of every
+carrier (LAGS_F1 is the next index) and, for the matrix pattern, the point of
+each carrier: a local node, or a "remote point" numbered after the local nodes.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class MultiplierDofs:
+    rep_index: np.ndarray        # (k, m) global LAGS_C index of each segment cell's carriers (-1 pad)
+    remote_points: tuple         # (global index, dofs per point, owner rank) of remote carriers
+    element_points: np.ndarray   # (k, nn + m) pattern points of each interface element
+
+
+def multiplier_dofs(mesh, layout, space, segments):
+    """The :class:`MultiplierDofs` of the interface ``segments`` (collective)."""
+    own = layout.multiplier & mesh.node_owned
+    mpi = mesh.comm.tompi4py()
+    parts = mpi.allgather((mesh.node_ids[own], layout.lag_global[own, 0]))
+    ids = np.concatenate([p[0] for p in parts])
+    idx = np.concatenate([p[1] for p in parts])
+    owner = np.concatenate([np.full(len(p[0]), r) for r, p in enumerate(parts)])
+    order = np.argsort(ids)
+    ids, idx, owner = ids[order], idx[order], owner[order]
+    co = space.carriers_of
+    live = co >= 0
+    rep = space.representative(np.where(live, co, space.ids[0]))
+    pos = np.searchsorted(ids, rep)
+    rep_index = np.where(live, idx[pos], -1)
+    # carriers as points of the matrix pattern: a local node, or a remote point
+    vloc = np.argsort(mesh.node_ids[: mesh.n_vertices])
+    vids = mesh.node_ids[: mesh.n_vertices][vloc]
+    if len(vids):
+        j = np.minimum(np.searchsorted(vids, rep), len(vids) - 1)
+        local = (vids[j] == rep) & live
+        point = np.where(local, vloc[j], -1)
+    else:
+        local = np.zeros(rep.shape, bool)
+        point = np.full(rep.shape, -1)
+    remote_ids, rpos = np.unique(rep[~local & live], return_inverse=True)
+    point[~local & live] = len(mesh.x) + rpos
+    rp = np.searchsorted(ids, remote_ids)
+    remote = (idx[rp], np.full(len(rp), 2), owner[rp])
+    points = np.concatenate([mesh.cell_nodes[segments.cells], point], axis=1)
+    return MultiplierDofs(rep_index, remote, points)

@@ -1,0 +1,41 @@
+"""What every interface law declares, and the default answers.
+
+A law is an object with a few facts the rest of the package asks about
+(instead of comparing names) and a factory of its
+:class:`~xfemcontact.contact.problem.InterfaceProblem`:
+
+* ``multipliers``: LAGS_C / LAGS_F1 dofs on the vertices of cut cells (the
+  multiplier space of :mod:`xfemcontact.contact.space`);
+* ``zero_jump``: every Heaviside dof is fixed (the sides move together);
+* ``separate_bodies``: the two sides are separate bodies for the rigid-body
+  check of :mod:`xfemcontact.preflight` (nothing crosses the interface);
+* ``case_tables``: the case tables it reads besides ``[interface]``;
+* ``problem(setup)``: the interface problem the solver and the
+  post-processing use.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+
+class InterfaceLaw:
+    """Base of the interface laws (see the module documentation)."""
+
+    name: str = ""
+    doc: str = ""
+    multipliers: bool = False
+    zero_jump: bool = False
+    separate_bodies: bool = False
+    case_tables: tuple[str, ...] = ()
+
+    def multiplier_space(self, mesh, segments, points, case):
+        """The multiplier space of the interface (None: no multipliers)."""
+        return None
+
+    def problem(self, setup: Any) -> Any:
+        """The :class:`~xfemcontact.contact.problem.InterfaceProblem` of the interface
+        for ``setup`` (a :class:`~xfemcontact.contact.problem.InterfaceSetup`)."""
+        raise NotImplementedError
+
+    def __repr__(self) -> str:
+        return f"<interface law {self.name!r}>"

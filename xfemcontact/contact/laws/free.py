@@ -1,0 +1,22 @@
+"""``law = "free"``: traction-free lips.
+
+The interface transmits nothing: no unknowns, no terms.  Each side is a
+separate body for the rigid-body check of :mod:`xfemcontact.preflight`; the
+results report the gap and slip at the interface points (the lips may
+interpenetrate: nothing prevents it).
+"""
+from xfemcontact.contact.laws.base import InterfaceLaw
+
+
+class Free(InterfaceLaw):
+    name = "free"
+    doc = "traction-free lips (nothing crosses the interface)"
+    separate_bodies = True
+
+    def problem(self, setup):
+        from xfemcontact.contact.problem import InterfaceProblem
+
+        return InterfaceProblem(setup, bonded=False)
+
+
+LAW = Free()

@@ -1,0 +1,19 @@
+"""The case's input mesh on rank 0: read or generated, then refined."""
+from xfemcontact._petsc import PETSc
+
+
+def build_raw_mesh(case):
+    """The :class:`~xfemcontact.mesh.raw.RawMesh` of ``case`` on rank 0 (read from
+    ``mesh.file`` or generated from ``mesh.rectangle``, refined ``mesh.refine``
+    times); None on the other processes."""
+    if PETSc.COMM_WORLD.rank != 0:
+        return None
+    from xfemcontact.mesh.generate import rectangle
+    from xfemcontact.mesh.read import read_mesh
+    from xfemcontact.mesh.refine import refine_uniform
+
+    spec = case.mesh
+    raw = read_mesh(spec.file, display_name=spec.file.name) if spec.file else rectangle(**spec.rectangle)
+    if spec.refine:
+        raw = refine_uniform(raw, spec.refine)
+    return raw

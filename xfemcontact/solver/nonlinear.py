@@ -1,0 +1,112 @@
+"""Newton inside the outer loops of an interface problem: the SNES objects of one
+model and the record of what they did.
+
+    solver = NonlinearSolver(model)
+    reason = solver.solve(model.x)       # > 0 converged
+    solver.record, solver.info(), solver.warnings()
+
+The Newton SNES (no prefix) calls the model's residual and Jacobian; the outer
+loops (:mod:`xfemcontact.solver.loops`) are the ones ``model.problem.loops``
+names, configured from the case's ``[contact]`` table and the options database.
+"""
+from __future__ import annotations
+
+from xfemcontact._petsc import PETSc
+from xfemcontact.solver.loops import LoopRecord, create_loops, solve_newton
+from xfemcontact.solver.newton import create_snes
+
+
+def _mumps_count(v):
+    """MUMPS writes large counts as negative millions."""
+    return int(v) if v >= 0 else int(-v) * 1000000
+
+
+class NonlinearSolver:
+    """The SNES objects of one model and the record of the solve.
+
+    Attributes: ``newton`` (SNES), ``newton_test`` (its convergence test, with the
+    residual history), ``outer`` and ``contact`` (the outermost and the contact
+    loop SNES, None without loops), ``record`` (:class:`LoopRecord`, None without
+    loops), ``jacobians`` (Jacobian evaluations), ``linear_failure`` (KSP reason and
+    MUMPS status of a failed factorisation, see :func:`solve_newton`) and
+    ``linear_warnings``.
+    """
+
+    def __init__(self, model):
+        self.model = model
+        self.comm = model.comm
+        newton = model.case.newton
+        f = model.layout.create_global_vec()
+        self.jacobians = 0
+        self.newton, self.newton_test = create_snes(
+            self.comm, model.residual, self._jacobian, model.K, f,
+            newton.resi_glob_rela, newton.iter_glob_maxi, lambda: model.load_norm)
+        self.linear_failure: dict | None = None
+        self.linear_warnings: list[str] = []
+        self._info: dict | None = None
+        problem = model.problem
+        self.record = LoopRecord() if problem is not None and problem.loops else None
+        self.outer = self.contact = None
+        if self.record is not None:
+            self.outer, self.contact = create_loops(self, problem, model.case.contact)
+
+    def _jacobian(self, snes, x, J, P):
+        self.jacobians += 1
+        self.model.jacobian(snes, x, J, P)
+
+    def solve(self, x) -> int:
+        """Solve from ``x`` (updated in place); the outermost converged reason."""
+        if self.outer is None:
+            solve_newton(self, x)
+            return int(self.newton.getConvergedReason())
+        self.outer.solve(None, x)
+        return int(self.outer.getConvergedReason())
+
+    def warnings(self) -> list[str]:
+        """The linear solver's warnings, then the loops' (one line each)."""
+        return list(self.linear_warnings) + (list(self.record.warnings) if self.record else [])
+
+    def release(self) -> None:
+        """Free the factorisation (after the solve); the facts are kept for :meth:`info`."""
+        if self._info is None:
+            self._info = self.info()
+            self.newton.getKSP().reset()
+
+    def info(self) -> dict:
+        """Linear solver facts: type, Jacobians, MUMPS statistics when MUMPS factors."""
+        if self._info is not None:
+            return self._info
+        ksp = self.newton.getKSP()
+        pc = ksp.getPC()
+        info = {"ksp": ksp.getType(), "pc": pc.getType(), "matrix": self.model.K.getType(),
+                "jacobians": self.jacobians}
+        try:
+            info["solver"] = pc.getFactorSolverType()
+        except Exception:      # not a factorising preconditioner
+            return info
+        if info["solver"] == "mumps" and self.jacobians:
+            try:
+                F = pc.getFactorMatrix()
+            except PETSc.Error:     # dropped after a failed factorisation (solve_newton)
+                if self.linear_failure is not None and self.linear_failure["mumps"]:
+                    info["mumps"] = self.linear_failure["mumps"]
+                return info
+            info["mumps"] = {"null_pivots": int(F.getMumpsInfog(28)),
+                             "status": int(F.getMumpsInfog(1)),
+                             "factor_entries": _mumps_count(F.getMumpsInfog(29)),
+                             "ordering": int(F.getMumpsInfog(7)),
+                             "memory_mb_total": int(F.getMumpsInfog(31))}
+        return info
+
+    def iterations(self) -> dict:
+        """Iteration counts of every loop (results.json ``iterations``)."""
+        loops = self.record
+        if loops is None:
+            return {"newton": self.newton.getIterationNumber()}
+        return {"newton": int(sum(loops.newton)), "newton_per_solve": list(loops.newton),
+                "contact": list(loops.contact), "friction": int(loops.friction),
+                "stick_predictor_steps": int(sum(loops.newton_predictor)),
+                "line_search_retries": int(loops.line_search_retries),
+                "frozen_status_solves": int(loops.frozen_solves),
+                "status_changes": list(loops.status_changes),
+                "threshold_changes": [float(c) for c in loops.threshold_changes]}
