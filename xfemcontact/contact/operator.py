@@ -11,7 +11,7 @@ are added with ADD_VALUES (PETSc sends the off-process ones).
 
 The operator holds no contact state: statuses and thresholds are a
 :class:`~xfemcontact.contact.problem.PointState` passed to each call, owned by
-the :class:`~xfemcontact.contact.problem.ContactProblem`.
+the :class:`~xfemcontact.contact.gauss_problem.GaussContactProblem`.
 """
 import numpy as np
 

@@ -130,7 +130,7 @@ class ContactLoop:
         """Newton from ``x``.  With friction, a full-step Newton that fails is redone once
         from the same start with a backtracking line search (module docstring)."""
         newton = self.newton
-        retry = self.problem.friction and self.retry
+        retry = self.problem.fallbacks and self.problem.friction and self.retry
         start = x.copy() if retry else None
         solve_newton(self.solver, x)
         self.record.newton.append(newton.getIterationNumber())

@@ -4,7 +4,7 @@ LAGS_C and LAGS_F1 live on the vertices of the cut cells (the multiplier space
 of :mod:`xfemcontact.contact.space`); the terms are code_aster's continuous
 augmented-Lagrangian method (:mod:`xfemcontact.contact.gauss_point`), run by the
 status and threshold loops of :mod:`xfemcontact.solver.loops` through
-:class:`~xfemcontact.contact.problem.ContactProblem`.  Reads the ``[contact]``
+:class:`~xfemcontact.contact.gauss_problem.GaussContactProblem`.  Reads the ``[contact]``
 table of the case.
 """
 from xfemcontact.contact.laws.base import InterfaceLaw
@@ -23,9 +23,9 @@ class Contact(InterfaceLaw):
                            mesh.element.shape_linear(points.xi), points.w)
 
     def problem(self, setup):
-        from xfemcontact.contact.problem import ContactProblem
+        from xfemcontact.contact.gauss_problem import GaussContactProblem
 
-        return ContactProblem(setup)
+        return GaussContactProblem(setup)
 
 
 LAW = Contact()

@@ -1,0 +1,168 @@
+"""Unilateral contact with Coulomb friction, code_aster's continuous method at the
+interface Gauss points (``[contact] integration = "GAUSS"``).
+
+The terms are those of :mod:`xfemcontact.contact.gauss_point`; statuses and
+thresholds live at the Gauss points (:class:`~xfemcontact.contact.problem.PointState`).
+The protocol is that of :mod:`xfemcontact.contact.problem`, with the fallbacks
+of :mod:`xfemcontact.solver.loops` (stick predictor, frictionless start redone
+sticking, line search, frozen friction statuses).
+"""
+from __future__ import annotations
+
+from contextlib import contextmanager
+
+import numpy as np
+
+from xfemcontact._petsc import PETSc
+from xfemcontact.contact import gauss_point
+from xfemcontact.contact.dofmap import multiplier_dofs
+from xfemcontact.contact.operator import InterfaceOperator
+from xfemcontact.contact.problem import InterfaceProblem, InterfaceSetup, PointState
+
+
+class GaussContactProblem(InterfaceProblem):
+    """Unilateral contact with Coulomb friction: code_aster's continuous method at the
+    interface Gauss points (:mod:`xfemcontact.contact.gauss_point`)."""
+
+    fallbacks = True
+
+    def __init__(self, setup: InterfaceSetup):
+        mesh, c = setup.mesh, setup.case.contact
+        self.comm = mesh.comm
+        self.segments, self.points, self.space = setup.geo.segments(), setup.points, setup.space
+        dofs = multiplier_dofs(mesh, setup.layout, setup.space, self.segments)
+        self.rep_index = dofs.rep_index
+        self.pattern_points, self.remote_points = dofs.element_points, dofs.remote_points
+        unknown = PETSc.Options().getString("xfc_friction_unknown", c.friction_unknown).upper()
+        rho_T = max(c.coef_cont, c.coulomb * c.coef_frot * abs(c.seuil_init or 0.0))
+        self.law = gauss_point.PointLaw(c.coef_cont, c.coef_frot, c.coulomb, c.friction,
+                                        unknown="traction" if unknown == "TRACTION" else "semi-multiplier",
+                                        rho_T=rho_T)
+        self.friction = self.law.friction
+        self.loops = ("contact", "friction") if self.friction else ("contact",)
+        self._op = InterfaceOperator(mesh, setup.geo, setup.layout, setup.space, self.rep_index,
+                                     self.law, setup.points)
+        self.indices = self._op.gidx
+        self.phi = self._op.phi
+        shape = setup.points.w.shape
+        self._state = PointState(np.full(shape, 1 if c.contact_init is not False else 0, dtype=np.int64),
+                                 np.full(shape, float(c.seuil_init) if c.seuil_init is not None else 0.0))
+        self._previous_lags_c = None
+
+    # -- Newton ---------------------------------------------------------------------
+    def add_residual(self, x, f) -> None:
+        self._op.add_residual(x, f, self._state)
+
+    def tangent(self, x) -> np.ndarray:
+        return self._op.element_matrices(x, self._state)
+
+    def add_matrices(self, J, K) -> None:
+        self._op.add_matrices(J, K)
+
+    def add_product(self, K, x, f, scale=1.0) -> None:
+        self._op.add_product(K, x, f, scale)
+
+    # -- outer loops ----------------------------------------------------------------
+    def _mpi(self):
+        return self.comm.tompi4py()
+
+    def _fields(self, x):
+        return self._op.point_fields(self._op.element_values(x))
+
+    def update_status(self, x) -> int:
+        """Apply the status test; returns the number of points (all processes) that changed."""
+        g, ut, lam, Lam = self._fields(x)
+        new = gauss_point.update_status(self.law, self._state.chi, g, lam)
+        changed = int((new != self._state.chi).sum())
+        self._state.chi = new
+        return self._mpi().allreduce(changed)
+
+    def update_threshold(self, x) -> np.ndarray:
+        """s <- LAGS_C.  Returns the mask ``(k, ng)`` of points in contact whose friction
+        this update switches on or bounds for the first time (threshold zero or
+        unbounded before, not zero now)."""
+        g, ut, lam, Lam = self._fields(x)
+        st = self._state
+        fresh = (st.s == 0) | st.unbounded
+        st.unbounded = False
+        st.s = gauss_point.threshold(lam)
+        return (st.chi == 1) & fresh & (st.s != 0)
+
+    def threshold_change(self, x, first: bool = False) -> float:
+        """max |LAGS_C - LAGS_C of the previous call| / max |LAGS_C| over the multiplier
+        dofs of every process; 1 when ``first`` (the first threshold iteration: the
+        reference is zero).  Collective."""
+        from mpi4py import MPI
+
+        lam = self._lags_c_dofs(x)
+        previous, self._previous_lags_c = self._previous_lags_c, lam
+        if first or previous is None:
+            return 1.0
+        mpi = self._mpi()
+        num = mpi.allreduce(float(np.abs(lam - previous).max(initial=0.0)), op=MPI.MAX)
+        den = mpi.allreduce(float(np.abs(lam).max(initial=0.0)), op=MPI.MAX)
+        return num / den if den > 0 else (0.0 if num == 0 else np.inf)
+
+    def _lags_c_dofs(self, x):
+        """LAGS_C dof values of this process's interface elements."""
+        ve = self._op.element_values(x)
+        nn, nv = self._op.nn, self._op.nv
+        return ve[:, 2 * nn:2 * nn + nv][self.indices[:, 2 * nn:2 * nn + nv] >= 0]
+
+    def has_thresholds(self) -> bool:
+        """Whether any point has a non-zero friction threshold (collective)."""
+        return bool(self._mpi().allreduce(int(np.count_nonzero(self._state.s))))
+
+    def friction_statuses(self, x) -> np.ndarray:
+        """``(k, ng)`` friction status at ``x``: 0 stick, +-1 slip direction."""
+        g, ut, lam, Lam = self._fields(x)
+        st = self._state
+        return gauss_point.friction_status(self.law, st.chi, st.s, ut, Lam)
+
+    @contextmanager
+    def holding(self, statuses):
+        """Friction statuses imposed on the points for a block (0 stick, +-1 slip,
+        NaN: the trial value decides)."""
+        self._state.held = statuses
+        try:
+            yield
+        finally:
+            self._state.held = None
+
+    def unbound_friction(self) -> None:
+        """Friction without bound until the next threshold update: every point in
+        contact sticks (the start when the frictionless one has no equilibrium)."""
+        self._state.unbounded = True
+
+    def snapshot(self) -> PointState:
+        return self._state.copy()
+
+    def restore(self, snapshot: PointState) -> None:
+        self._state = snapshot.copy()
+
+    def largest_threshold(self) -> float:
+        """max |s| over every process (Pa)."""
+        from mpi4py import MPI
+
+        return self._mpi().allreduce(float(np.abs(self._state.s).max(initial=0.0)), op=MPI.MAX)
+
+    # -- results --------------------------------------------------------------------
+    def segment_values(self, x, xi, near) -> dict:
+        """LAGS_C, LAGS_F1 ``(k, p)`` at the reference points ``xi (k, p, 2)`` of the
+        segment cells, and the statuses "contact", "sliding" ``(k, p)`` of the Gauss
+        points ``near (p,)``."""
+        op = self._op
+        el = op.mesh.element
+        ve = op.element_values(x)
+        terms = op.terms(x, self._state)
+        nn, nv = op.nn, op.nv
+        phi = self.space.functions(el.shape_linear(xi))
+        lam = np.einsum("kpa,ka->kp", phi, ve[:, 2 * nn:2 * nn + nv])
+        fric = np.einsum("kpa,ka->kp", phi, ve[:, 2 * nn + nv:])
+        return {"LAGS_C": lam,
+                "LAGS_F1": gauss_point.semi_multiplier(self.law, gauss_point.threshold(lam), fric),
+                "contact": self._state.chi[:, near].astype(float),
+                "sliding": terms["slip"][:, near].astype(float)}
+
+    def summary(self) -> dict:
+        return self.space.summary()
