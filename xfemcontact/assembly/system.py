@@ -14,7 +14,7 @@ from xfemcontact.assembly import bulk, loads
 from xfemcontact.fem import elasticity
 from xfemcontact.fem.elements import Seg3
 from xfemcontact.xfem import geometry as xgeo
-from xfemcontact.xfem.levelset import edge_roots
+from xfemcontact.xfem.levelset import edge_crossing
 
 
 def bc_array(layout, fixed, values):
@@ -94,15 +94,18 @@ def _edge_dofs(layout, nodes):
 
 
 def _edge_forces_by_side(mesh, geo, nodes, xe, spec):
-    """Forces on functions (N_a, psi_a N_a) of edge nodes: ``(k, 2, 6)``."""
+    """Forces on functions (N_a, psi_a N_a) of edge nodes: ``(k, 2, 6)``.
+
+    An edge the interface crosses is split where its cell is cut (the same
+    :func:`~xfemcontact.xfem.levelset.edge_crossing`), and each piece gets the
+    Heaviside value of its side."""
     k = len(nodes)
     out = np.zeros((k, 2, 6))
     if geo is None:
         out[:, :, :3] = loads.edge_forces(xe, spec)
         return out
     phi = geo.phi[nodes]
-    roots = edge_roots(phi[:, 0], phi[:, 1], phi[:, 2])
-    s_cut = np.where(phi[:, 0] * phi[:, 1] < 0, roots[:, 0], np.nan)
+    s_cut = edge_crossing(phi[:, 0], phi[:, 1], phi[:, 2])
     pieces = [(-1.0, np.where(np.isnan(s_cut), 1.0, s_cut)), (np.where(np.isnan(s_cut), 1.0, s_cut), 1.0)]
     for a, b in pieces:
         a = np.broadcast_to(a, (k,))

@@ -38,7 +38,7 @@ import numpy as np
 
 from xfemcontact.errors import GeometryError
 from xfemcontact.fem.elements import Seg3, affine_cells, element
-from xfemcontact.xfem.levelset import edge_roots
+from xfemcontact.xfem.levelset import edge_crossing
 
 NEWTON_ITS = 50
 
@@ -86,8 +86,7 @@ def intersection_points(el, phi_cell):
     ea, eb, em = el.edges.T
     pa, pb, pm = phi_cell[:, ea], phi_cell[:, eb], phi_cell[:, em]
     crossing = pa * pb < 0
-    roots = edge_roots(pa.ravel(), pb.ravel(), pm.ravel()).reshape(k, ne, 2)
-    s = np.where(np.isnan(roots[..., 0]), roots[..., 1], roots[..., 0])
+    s = edge_crossing(pa.ravel(), pb.ravel(), pm.ravel()).reshape(k, ne)
     # vertex with LN = 0 whose two edges in this cell have opposite signs
     sign_edge = _edge_sign(pa, pb, pm)
     prev = np.roll(np.arange(ne), 1)                     # edge ending at vertex v is v-1

@@ -59,8 +59,15 @@ def nodal_values(mesh, interface, node_field=None):
 
 def edge_roots(phi_a, phi_b, phi_m):
     """Roots in the open interval (-1, 1) of the SEG3 quadratic through
-    (-1, phi_a), (1, phi_b), (0, phi_m).  Returns ``(k, 2)`` with NaN for none,
-    sorted."""
+    (-1, phi_a), (1, phi_b), (0, phi_m).  Returns ``(k, 2)``: the roots inside,
+    sorted, first; NaN after them (none, or one root inside).
+
+    The quadratic of an edge crossed once has its other root outside, on the
+    left (below -1) or on the right depending on the edge's orientation and
+    curvature; a straight LN has it at about -B / A, 1e12 away on either side,
+    when the mid-node is off the edge's middle by round-off (as Gmsh places
+    them).  The outside root is dropped and the inside one is always in the
+    first column."""
     A = 0.5 * (phi_a + phi_b) - phi_m
     B = 0.5 * (phi_b - phi_a)
     C = phi_m
@@ -79,7 +86,16 @@ def edge_roots(phi_a, phi_b, phi_m):
         roots[quad, 1] = np.maximum(r1, r2)[quad]
     # roots within round-off of a vertex are the vertex, not a crossing inside
     roots[~((roots > -1.0 + VERTEX_ROOT) & (roots < 1.0 - VERTEX_ROOT))] = np.nan
-    return roots
+    return np.sort(roots, axis=1)                 # NaN sorts last
+
+
+def edge_crossing(phi_a, phi_b, phi_m):
+    """Where LN crosses zero inside SEG3 edges whose vertices have strictly opposite
+    signs: the reference abscissa in (-1, 1) of the edge quadratic's one root there,
+    NaN on the other edges.  The cut cells (:func:`xfemcontact.xfem.cut.intersection_points`)
+    and the loads on cut boundary edges take the crossing from here."""
+    crossing = np.asarray(phi_a) * np.asarray(phi_b) < 0
+    return np.where(crossing, edge_roots(phi_a, phi_b, phi_m)[:, 0], np.nan)
 
 
 @dataclass
