@@ -51,3 +51,26 @@ def results(outdir):
 @pytest.fixture
 def case_dir(tmp_path):
     return tmp_path
+
+
+def with_contact_keys(path, directory, **keys):
+    """A copy of the case ``path`` in ``directory`` with ``[contact]`` keys set (values as
+    TOML text, e.g. ``integration='"GAUSS"'``); mesh files stay where they were."""
+    import re
+
+    text = pathlib.Path(path).read_text()
+    text = re.sub(r'(file\s*=\s*")(?!/)', lambda m: m.group(1) + str(pathlib.Path(path).parent) + "/", text)
+    for key, value in keys.items():
+        text = re.sub(rf"^{key}\s*=.*\n", "", text, flags=re.M)
+        if "[contact]" in text:
+            text = text.replace("[contact]\n", f"[contact]\n{key} = {value}\n", 1)
+        else:
+            text += f"\n[contact]\n{key} = {value}\n"
+    out = pathlib.Path(directory) / pathlib.Path(path).name
+    out.write_text(text)
+    return out
+
+
+def gauss(path, directory):
+    """The case ``path`` with code_aster's Gauss-point contact (``integration = "GAUSS"``)."""
+    return with_contact_keys(path, directory, integration='"GAUSS"')

@@ -136,9 +136,10 @@ def test_elastic_rectangle():
     assert case.body_force is None and case.interface is None and case.params == {}
     assert case.contact.friction is False and case.contact.contact_init is True
     assert (case.contact.coef_cont, case.contact.coef_frot, case.contact.coulomb) == \
-        (100.0, 100.0, 0.0)
+        (None, None, 0.0)
+    assert case.contact.integration == "NOEUD"
     assert (case.contact.iter_cont_maxi, case.contact.iter_frot_maxi, case.contact.ordre_int,
-            case.contact.resi_frot, case.contact.seuil_init) == (30, 10, 4, 1e-4, None)
+            case.contact.resi_frot, case.contact.seuil_init) == (30, 10, None, 1e-4, None)
     assert (case.newton.resi_glob_rela, case.newton.iter_glob_maxi) == (1e-6, 20)
     assert case.output.formats == ("xdmf",) and case.output.plots is True
     assert float(case.reference["DY"](x=0.0, y=10.0)) == pytest.approx(5e-5)

@@ -1,9 +1,11 @@
 """Frictional contact on the interface (issue 4): SSNV509 a and b, beyond stick, stability."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
-from conftest import CASES, ROOT, results, run_cli
+from conftest import CASES, ROOT, gauss, results, run_cli, with_contact_keys
 
 DATA_CASES = ROOT / "tests" / "data" / "cases"
 
@@ -56,7 +58,7 @@ def test_interface_table_layout(tmp_path):
     assert (counts == 2).sum() >= n // 2 - 2
 
 
-@pytest.mark.parametrize("name", ["opening", "slip_straight", "slip_straight_tria6", "low_friction",
+@pytest.mark.parametrize("name", ["opening", "slip_straight", "slip_straight_tria6",
                                   "frictionless", "tangent_circle", "tangent_circle_tria6",
                                   "ellipse_tria6", "inclined_line_tria6", "sinusoid",
                                   "ssnv509_jittered", "ssnv509_distorted_quad8", "inclusion_biaxial",
@@ -64,6 +66,24 @@ def test_interface_table_layout(tmp_path):
                                   "diagonal_line", "free_lips"])
 def test_beyond_stick(tmp_path, name):
     _, r = run_ok(CASES / "validation" / f"{name}.toml", tmp_path / name)
+    assert r["converged"] and all(t["ok"] for t in r["tests"])
+
+
+#: an open defect of integration = NOEUD (issue 18): on SSNV509 a with mu = 0.3 the
+#: friction statuses and thresholds settle into a cycle of period 3 (relative change of
+#: LAGS_C 1.1e-2, 6.4e-3, 5.6e-3, ...) and the threshold loop stops at ITER_FROT_MAXI
+THRESHOLD_CYCLE = "NOEUD: threshold loop cycles on SSNV509 a with mu = 0.3 (issue 18, open)"
+
+
+@pytest.mark.xfail(strict=True, reason=THRESHOLD_CYCLE)
+def test_beyond_stick_low_friction_noeud(tmp_path):
+    _, r = run_ok(CASES / "validation" / "low_friction.toml", tmp_path / "lf")
+    assert r["converged"] and all(t["ok"] for t in r["tests"])
+
+
+def test_beyond_stick_low_friction_gauss(tmp_path):
+    """code_aster's Gauss-point form on the same case (its fallbacks included) converges."""
+    _, r = run_ok(gauss(CASES / "validation" / "low_friction.toml", tmp_path), tmp_path / "lf")
     assert r["converged"] and all(t["ok"] for t in r["tests"])
 
 
@@ -101,7 +121,7 @@ def test_frictionless_start_without_equilibrium_restarts_sticking(tmp_path):
     """A block held only by friction, no SEUIL_INIT: code_aster's frictionless first
     iteration has no solution; it is redone sticking, with a warning, and the closed
     form is reached."""
-    p, r = run_ok(CASES / "validation" / "column_on_incline_tria6.toml", tmp_path / "col")
+    p, r = run_ok(gauss(CASES / "validation" / "column_on_incline_tria6.toml", tmp_path), tmp_path / "col")
     assert "held only by friction" in p.stderr + p.stdout
     assert r["converged"] and all(t["ok"] for t in r["tests"])
     assert r["iterations"]["stick_predictor_steps"] == 1
@@ -128,10 +148,13 @@ def test_opening_releases_every_point(tmp_path):
     assert not any(r["interface"]["contact"])
 
 
-def test_slip_zone_matches_stick_prediction(tmp_path):
+@pytest.mark.parametrize("integration", [pytest.param("NOEUD", marks=pytest.mark.xfail(strict=True, reason=THRESHOLD_CYCLE)),
+                                         "GAUSS"])
+def test_slip_zone_matches_stick_prediction(tmp_path, integration):
     """mu = 0.3: points where the stick solution needs |sigma_nt| > mu |sigma_nn| slip."""
     out = tmp_path / "lf"
-    assert run_cli(["run", CASES / "validation" / "low_friction.toml", "-o", out]).returncode == 0
+    case = with_contact_keys(CASES / "validation" / "low_friction.toml", tmp_path, integration=f'"{integration}"')
+    assert run_cli(["run", case, "-o", out]).returncode == 0
     it = results(out)["interface"]
     x, y = np.array(it["x"]), np.array(it["y"])
     ratio = np.abs(x - 5.0) / np.abs(y - 11.77)          # |sigma_nt / sigma_nn| of the stick solution
@@ -197,7 +220,7 @@ def test_failed_factorisation_ends_in_a_clear_error(tmp_path):
     stop on MUMPS INFOG(1) = -3 with a traceback.  The failed factor is dropped: each
     fallback factorises anew, and the run ends with exit code 3 and one line naming the
     singular matrix."""
-    text = (CASES / "validation" / "diagonal_line.toml").read_text()
+    text = gauss(CASES / "validation" / "diagonal_line.toml", tmp_path).read_text()
     case = tmp_path / "raw.toml"
     case.write_text(text.replace("ordre_int = 4", 'ordre_int = 4\nalgo_lagr = "NON"'))
     out = tmp_path / "raw"
@@ -247,7 +270,7 @@ def test_stick_predictor_holds_a_floating_inclusion(tmp_path):
     iteration is frictionless (its rotation undetermined); the stick predictor lands on
     the stick solution, Newton with the real law starts converged, and 1 and 2
     processes agree."""
-    r1, r2 = one_and_many(tmp_path, CASES / "validation" / "inclusion_biaxial.toml", 2)
+    r1, r2 = one_and_many(tmp_path, gauss(CASES / "validation" / "inclusion_biaxial.toml", tmp_path), 2)
     for r in (r1, r2):
         assert r["converged"] and all(t["ok"] for t in r["tests"]), r["tests"]
         it = r["iterations"]
@@ -262,7 +285,7 @@ def test_failed_full_step_newton_is_redone_with_a_line_search(tmp_path):
     """A nearly free inclusion that slips almost everywhere: full-step Newton stalls in
     the second threshold iteration, the retry with a backtracking line search converges,
     with a warning, on 1 and 2 processes alike."""
-    r1, r2 = one_and_many(tmp_path, DATA_CASES / "inclusion_sliding.toml", 2)
+    r1, r2 = one_and_many(tmp_path, gauss(DATA_CASES / "inclusion_sliding.toml", tmp_path), 2)
     for r in (r1, r2):
         assert r["converged"]
         assert r["iterations"]["line_search_retries"] == 1
@@ -275,7 +298,7 @@ def test_newton_cycling_at_the_stick_slip_limit_ends_with_frozen_statuses(tmp_pa
     """Partial slip on an arc: Newton cycles on points at the stick/slip limit with full
     steps and with a line search; with the friction statuses frozen in Newton and
     updated between solves the loops converge, and |LAGS_F1| <= 1 holds."""
-    _, r = run_ok(DATA_CASES / "arc_partial_slip_tria6.toml", tmp_path / "arc")
+    _, r = run_ok(gauss(DATA_CASES / "arc_partial_slip_tria6.toml", tmp_path), tmp_path / "arc")
     assert r["converged"]
     assert r["iterations"]["frozen_status_solves"] > 0
     it = r["interface"]
@@ -287,7 +310,7 @@ def test_newton_cycling_at_the_stick_slip_limit_ends_with_frozen_statuses(tmp_pa
 def test_too_small_coef_frot_is_named_when_newton_cycles(tmp_path):
     """Newton cycling at the stick/slip limit with COEF_FROT five orders too small: the
     run stops with a message suggesting COEF_FROT; with the suggested order it converges."""
-    case = DATA_CASES / "arc_small_coef_frot.toml"
+    case = gauss(DATA_CASES / "arc_small_coef_frot.toml", tmp_path)
     p = run_cli(["run", case, "-o", tmp_path / "small"])
     assert p.returncode != 0
     assert "COEF_FROT = 1000 is small for this problem" in p.stderr
@@ -370,16 +393,21 @@ def test_batched_packet_eigenvalues_match_one_by_one():
 @pytest.mark.parametrize("name", ["ssnv509a", "ssnv509b"])
 def test_projection_of_a_field_of_the_space_is_exact(name):
     """The L2 projection floor (post.projection) is zero for fields the multiplier
-    space holds: affine LAGS_C and LAGS_F1 come back exactly at every interface point."""
+    space holds: an affine LAGS_C and an affine friction unknown (the tangential
+    traction mu LAGS_C LAGS_F1 with integration = NOEUD, LAGS_F1 itself with GAUSS)
+    come back exactly at every interface point."""
     from xfemcontact.case import load_case
     from xfemcontact.case.formula import compile_formula
     from xfemcontact.model import Model
     from xfemcontact.post.projection import best_errors
 
-    model = Model(load_case(CASES / f"{name}.toml"))
-    best = best_errors(model, compile_formula("-0.1 + 0.003*x - 0.002*y"),
-                       compile_formula("0.25 + 0.05*x + 0.01*y"))
-    assert best["LAGS_C"] < 1e-13 and best["LAGS_F1"] < 1e-12, best
+    lags_c = "(-0.1 + 0.003*x - 0.002*y)"
+    for integration, lags_f1 in (("NOEUD", f"(0.05 + 0.01*x + 0.002*y) / (2*{lags_c})"),
+                                 ("GAUSS", "0.25 + 0.05*x + 0.01*y")):
+        case = load_case(CASES / f"{name}.toml")
+        case = dataclasses.replace(case, contact=dataclasses.replace(case.contact, integration=integration))
+        best = best_errors(Model(case), compile_formula(lags_c), compile_formula(lags_f1))
+        assert best["LAGS_C"] < 1e-13 and best["LAGS_F1"] < 1e-12, (integration, best)
 
 
 @pytest.mark.parametrize("name", SSNV509)

@@ -74,15 +74,16 @@ class Interface:
 class Contact:
     friction: bool                    # frottement == "COULOMB" and coulomb > 0
     coulomb: float
-    coef_cont: float
-    coef_frot: float
+    coef_cont: float | None           # None: chosen from the material and mesh
+    coef_frot: float | None
     contact_init: bool | str          # True, False or "interpenetrated"
     seuil_init: float | None
     iter_cont_maxi: int
     iter_frot_maxi: int
     resi_frot: float
-    ordre_int: int
+    ordre_int: int | None             # None: chosen from the cut cells (see schema)
     algo_lagr: str = "AUTO"           # AUTO (= VERSION3) | VERSION3 | NON
+    integration: str = "NOEUD"        # NOEUD | GAUSS
     friction_unknown: str = "LAGS_F1"  # LAGS_F1 (semi-multiplier) | TRACTION
 
 

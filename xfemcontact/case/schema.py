@@ -210,8 +210,15 @@ INTERFACE = Table({
 CONTACT = Table({
     "frottement": Key("choice", "friction law", default="SANS", choices=("COULOMB", "SANS")),
     "coulomb": Key("float", "Coulomb friction coefficient", default=0.0, ge=0),
-    "coef_cont": Key("float", "contact augmentation coefficient", default=100.0, gt=0),
-    "coef_frot": Key("float", "friction augmentation coefficient", default=100.0, gt=0),
+    "integration": Key("choice", "where the contact conditions hold: NOEUD = at the multiplier "
+                       "dofs (vertex-wise complementarity with positive lumped weights: answers "
+                       "independent of coef_cont and coef_frot, Coulomb at every point), GAUSS = "
+                       "code_aster's continuous method at the interface Gauss points",
+                       default="NOEUD", choices=("NOEUD", "GAUSS")),
+    "coef_cont": Key("float", "contact augmentation coefficient in Pa/m (default: E / h, h the "
+                     "mean edge length of the cut cells)", gt=0),
+    "coef_frot": Key("float", "friction augmentation coefficient in 1/m (default: E / (h mu |p|), "
+                     "p the largest initial friction threshold)", gt=0),
     "contact_init": Key("choice", "initial contact status", default="OUI",
                         choices=("OUI", "NON", "INTERPENETRE"),
                         values={"OUI": True, "NON": False, "INTERPENETRE": "interpenetrated"},
@@ -220,15 +227,18 @@ CONTACT = Table({
     "iter_cont_maxi": Key("int", "most contact status iterations", default=30, ge=1),
     "iter_frot_maxi": Key("int", "most friction threshold iterations", default=10, ge=1),
     "resi_frot": Key("float", "friction threshold convergence tolerance", default=1e-4, gt=0),
-    "ordre_int": Key("int", "Gauss points per interface segment", default=4, ge=1, le=8),
+    "ordre_int": Key("int", "Gauss points per interface segment (default: 4, code_aster's, "
+                     "or 8 where a cut cell is not affine: the shape functions of a distorted "
+                     "quadrangle are not polynomials along the interface)", ge=1, le=8),
     "algo_lagr": Key("choice", "multiplier space: AUTO (= VERSION3) makes the vertex multipliers "
                      "unique (weak vertices aggregated, kernels of straight interfaces tied); "
                      "NON = raw vertex space (may be singular, for comparison)", default="AUTO",
                      choices=("AUTO", "VERSION3", "NON")),
-    "friction_unknown": Key("choice", "friction dof: LAGS_F1 = code_aster's semi-multiplier (exact "
-                            "|LAGS_F1| = 1 in slip), TRACTION = tangential traction (stick tangent "
-                            "independent of the threshold: fewer factorisations)", default="LAGS_F1",
-                            choices=("LAGS_F1", "TRACTION")),
+    "friction_unknown": Key("choice", "friction dof of integration = GAUSS: LAGS_F1 = code_aster's "
+                            "semi-multiplier (exact |LAGS_F1| = 1 in slip), TRACTION = tangential "
+                            "traction (stick tangent independent of the threshold: fewer "
+                            "factorisations); NOEUD always solves for the traction",
+                            default="LAGS_F1", choices=("LAGS_F1", "TRACTION")),
 }, doc="DEFI_CONTACT: contact and friction settings", rules=(
     When("frottement", ("COULOMB",), require=("coulomb",),
          hint="give the friction coefficient, 0 for none"),

@@ -18,6 +18,7 @@ from xfemcontact.contact import gauss_point
 from xfemcontact.contact.dofmap import multiplier_dofs
 from xfemcontact.contact.operator import InterfaceOperator
 from xfemcontact.contact.problem import InterfaceProblem, InterfaceSetup, PointState
+from xfemcontact.contact.scales import coefficients
 
 
 class GaussContactProblem(InterfaceProblem):
@@ -34,11 +35,21 @@ class GaussContactProblem(InterfaceProblem):
         self.rep_index = dofs.rep_index
         self.pattern_points, self.remote_points = dofs.element_points, dofs.remote_points
         unknown = PETSc.Options().getString("xfc_friction_unknown", c.friction_unknown).upper()
-        rho_T = max(c.coef_cont, c.coulomb * c.coef_frot * abs(c.seuil_init or 0.0))
-        self.law = gauss_point.PointLaw(c.coef_cont, c.coef_frot, c.coulomb, c.friction,
+        scales = coefficients(setup.case, mesh, setup.geo)
+        # without COEF_FROT: E / (h mu |p|), p = SEUIL_INIT or the first threshold (see update_threshold)
+        self._natural_frot = None
+        coef_frot = c.coef_frot
+        if coef_frot is None:
+            self._natural_frot = setup.case.material.E / scales.h
+            p = abs(c.seuil_init or 0.0)
+            coef_frot = self._natural_frot / (c.coulomb * p) if c.coulomb > 0 and p > 0 else 1.0
+            self._natural_frot = None if p > 0 else self._natural_frot
+        rho_T = max(scales.coef_cont, c.coulomb * coef_frot * abs(c.seuil_init or 0.0))
+        self.law = gauss_point.PointLaw(scales.coef_cont, coef_frot, c.coulomb, c.friction,
                                         unknown="traction" if unknown == "TRACTION" else "semi-multiplier",
                                         rho_T=rho_T)
         self.friction = self.law.friction
+        self.mu, self.friction_unknown = self.law.mu, self.law.unknown
         self.loops = ("contact", "friction") if self.friction else ("contact",)
         self._op = InterfaceOperator(mesh, setup.geo, setup.layout, setup.space, self.rep_index,
                                      self.law, setup.points)
@@ -86,6 +97,11 @@ class GaussContactProblem(InterfaceProblem):
         fresh = (st.s == 0) | st.unbounded
         st.unbounded = False
         st.s = gauss_point.threshold(lam)
+        if self._natural_frot is not None:          # COEF_FROT not given, no SEUIL_INIT
+            p = self.largest_threshold()
+            if p > 0 and self.law.mu > 0:
+                self.law.coef_frot = self._natural_frot / (self.law.mu * p)
+                self._natural_frot = None
         return (st.chi == 1) & fresh & (st.s != 0)
 
     def threshold_change(self, x, first: bool = False) -> float:

@@ -146,9 +146,13 @@ class InterfaceOperator:
         f.assemblyEnd()
 
     # -- results at the interface points ----------------------------------------
-    def point_values(self, x, state):
+    def point_values(self, x, values):
         """Values at the ends (P1, P2) of every segment: where the interface crosses
         cell edges (code_aster's NFISSU points), one entry per point and cell.
+
+        ``values(ve, phi, end)``: the law's values at the ends ``end`` (0 or 1) from
+        the element values ``ve (k, nd)`` and the multiplier functions there
+        ``phi (k, m)``: a dict of ``(k,)`` arrays LAGS_C, LAGS_F1, contact, sliding.
 
         Returns a dict of flat arrays: x, y (m), LAGS_C (Pa), LAGS_F1 (-), gap,
         slip (m, normal and tangential jump), contact (1/0), sliding (1/0), cell
@@ -158,12 +162,10 @@ class InterfaceOperator:
 
         mesh, el, segs = self.mesh, self.mesh.element, self.segments
         ve = self.element_values(x)
-        nn, nv = self.nn, self.nv
+        nn = self.nn
         xc = mesh.x[mesh.cell_nodes[segs.cells]]
         out = {k: [] for k in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding",
                                "cell", "end")}
-        g_all, ut_all, lam_all, Lam_all = self.point_fields(ve)
-        t = self.terms(x, state)
         X = el.map_points(xc, segs.nodes)                          # physical P1, P2, P3
         for end, s in ((0, -1.0), (1, 1.0)):
             xi = segs.nodes[:, end]
@@ -175,17 +177,12 @@ class InterfaceOperator:
             phi = self.space.functions(el.shape_linear(xi))
             jx = 2.0 * np.einsum("ka,ka->k", N * self.enr, ve[:, :nn])
             jy = 2.0 * np.einsum("ka,ka->k", N * self.enr, ve[:, nn:2 * nn])
-            q = 0 if end == 0 else -1            # nearest Gauss point for the statuses
             out["x"].append(pos[:, 0])
             out["y"].append(pos[:, 1])
-            lam_p = np.einsum("ka,ka->k", phi, ve[:, 2 * nn:2 * nn + nv])
-            out["LAGS_C"].append(lam_p)
-            out["LAGS_F1"].append(claw.semi_multiplier(self.law, claw.threshold(lam_p),
-                                                       np.einsum("ka,ka->k", phi, ve[:, 2 * nn + nv:])))
             out["gap"].append(jx * n[:, 0] + jy * n[:, 1])
             out["slip"].append(jx * tau[:, 0] + jy * tau[:, 1])
-            out["contact"].append(state.chi[:, q].astype(float))
-            out["sliding"].append(t["slip"][:, q].astype(float))
+            for key, v in values(ve, phi, end).items():
+                out[key].append(v)
             out["cell"].append(mesh.cell_ids[segs.cells])
             out["end"].append(np.full(len(segs), end))
         return {k: np.concatenate(v) for k, v in out.items()}

@@ -36,7 +36,9 @@ problem needs, innermost first):
 
 Results: ``point_values(x)`` (the interface points), ``segment_values(x, xi,
 near)`` (any points of the segments), ``summary()``; read-only facts
-``segments``, ``points``, ``space``, ``rep_index``, ``phi``, ``law``.
+``segments``, ``points``, ``space``, ``rep_index``, ``phi``, ``mu`` and
+``friction_unknown`` ("semi-multiplier": the friction dof holds LAGS_F1;
+"traction": the tangential traction in Pa).
 """
 from __future__ import annotations
 
@@ -100,6 +102,8 @@ class InterfaceProblem:
     loops: tuple[str, ...] = ()
     friction = False
     fallbacks = False
+    mu = 0.0
+    friction_unknown = "semi-multiplier"     # what the friction dof holds: LAGS_F1, or the traction (Pa)
     indices = None
     pattern_points = None
     remote_points = None
@@ -127,9 +131,29 @@ class InterfaceProblem:
         return None
 
     # -- results --------------------------------------------------------------------
-    def point_values(self, x) -> dict:
-        """Values at the ends of every segment (see :meth:`InterfaceOperator.point_values`)."""
-        return self._op.point_values(x, self._state)
+    def point_values(self, x, thresholds_from_x: bool = False) -> dict:
+        """Values at the ends of every segment (see :meth:`InterfaceOperator.point_values`).
+
+        ``thresholds_from_x``: take the friction thresholds from the LAGS_C of ``x``
+        (a field that is no solve's, such as a projection), not from the state."""
+        return self._op.point_values(x, self._end_values(x, thresholds_from_x))
+
+    def _end_values(self, x, thresholds_from_x=False):
+        """The law's values at the segment ends (see :meth:`InterfaceOperator.point_values`):
+        here, at the Gauss points' statuses and thresholds."""
+        op, state = self._op, self._state
+        nn, nv = op.nn, op.nv
+        t = op.terms(x, state)
+
+        def values(ve, phi, end):
+            q = 0 if end == 0 else -1            # nearest Gauss point for the statuses
+            lam_p = np.einsum("ka,ka->k", phi, ve[:, 2 * nn:2 * nn + nv])
+            fric = np.einsum("ka,ka->k", phi, ve[:, 2 * nn + nv:])
+            return {"LAGS_C": lam_p,
+                    "LAGS_F1": gauss_point.semi_multiplier(self.law, gauss_point.threshold(lam_p), fric),
+                    "contact": state.chi[:, q].astype(float),
+                    "sliding": t["slip"][:, q].astype(float)}
+        return values
 
     def segment_values(self, x, xi, near):
         return None

@@ -114,6 +114,7 @@ class MultiplierSpace:
     topo: SegmentTopology      # of this process's segments
     carriers_of: np.ndarray    # (k, m) carrier global ids used by each segment cell (-1 pad)
     T: np.ndarray              # (k, nv, m) vertex values = T @ carrier values
+    T_convex: np.ndarray = None  # (k, nv, m) the same with weak vertices as convex combinations
     n_packets: int = 0
     n_ties: int = 0
     n_weak: int = 0
@@ -135,7 +136,8 @@ class MultiplierSpace:
         return np.einsum("k...v,kvm->k...m", lin, self.T)
 
     def summary(self):
-        return {"algo_lagr": self.algo, "carriers": int(len(np.unique(self.rep))),
+        return {"algo_lagr": self.algo,
+                "carriers": int(len(np.unique(self.rep))),
                 "weak_vertices": self.n_weak, "packets": self.n_packets, "ties": self.n_ties,
                 "smallest_trace_eigenvalue": float(self.smallest)}
 
@@ -144,7 +146,12 @@ def build(mesh, segments, algo="AUTO", lin_at_points=None, weights=None):
     """The multiplier space of the interface ``segments`` (all of this process's).
 
     ``lin_at_points (k, ng, nv)``: linear companion functions at the segments'
-    Gauss points, ``weights (k, ng)`` their weights (m).
+    Gauss points, ``weights (k, ng)`` their weights (m).  Besides ``T`` (weak
+    vertices extrapolated, weak packets tied by gradient: exact for linear
+    fields) the space has ``T_convex``, the same vertices as convex combinations
+    (weak vertices: :func:`convex_weights` of their roots; ties: merges), the
+    admissible alternative used where an extrapolated value is not
+    (:mod:`xfemcontact.contact.nodal_problem`).
     """
     el = mesh.element
     nv = el.nv
@@ -167,13 +174,29 @@ def build(mesh, segments, algo="AUTO", lin_at_points=None, weights=None):
     carriers = ids[strong]
     ext = _aggregation(el, ids, xv, strong, cverts, cx)          # weak id -> (root ids, weights)
     carriers_of, T = _cell_maps(topo, nv, strong, ids, ext)
-    space = MultiplierSpace(carriers, carriers.copy(), topo, carriers_of, T, algo=algo,
+    T_convex = _cell_maps(topo, nv, strong, ids, convex_aggregation(ext, xv, ids))[1]
+    space = MultiplierSpace(carriers, carriers.copy(), topo, carriers_of, T, T_convex, algo=algo,
                             n_weak=int((~strong).sum()))
     if algo != "NON" and len(carriers):
         _tie_kernels(space, mesh, edges, r, lin_at_points, weights)
         if space.tie_edges:
             space = _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts)
     return space
+
+
+def convex_weights(points, target):
+    """Non-negative weights ``w (r,)`` summing to 1 with ``w @ points`` closest to
+    ``target (2,)``: the barycentric coordinates of ``target`` when it lies in the
+    convex hull of ``points (r, 2)`` (then linear fields are reproduced exactly),
+    else those of the hull's point nearest to it.  One small NNLS problem."""
+    from scipy.optimize import nnls
+
+    scale = max(float(np.ptp(points, axis=0).max(initial=0.0)), 1e-300)
+    big = 1e3
+    A = np.vstack([(points - target).T / scale, big * np.ones(len(points))])
+    b = np.r_[0.0, 0.0, big]
+    w, _ = nnls(A, b)
+    return w / w.sum()
 
 
 def _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts):
@@ -186,6 +209,8 @@ def _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts):
     fields, and it still removes the edge's own weak mode.  Ties of singular packets
     (eigenvalue below ``SINGULAR``: straight interfaces, whose kernel *is* a linear
     field) and ties without a neighbouring crossed edge stay merges.
+
+    In ``T_convex`` of the new space the gradient ties are merges lam_a = lam_b.
     """
     pos = {g: i for i, g in enumerate(ids)}
     cell_edges = edges.reshape(-1, 2, 2)
@@ -214,11 +239,17 @@ def _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts):
     strong = strong.copy()
     for a in tied:
         strong[pos[a]] = False
+    merged = {a: (roots[:1], np.ones(1)) for a, (roots, _) in tied.items()}
+    convex = convex_aggregation(ext, xv, ids)
     ext = {g: _substitute(roots, wts, tied) for g, (roots, wts) in ext.items()}
     ext.update(tied)
+    convex = {g: _substitute(roots, wts, merged) for g, (roots, wts) in convex.items()}
+    convex.update(merged)
     carriers_of, T = _cell_maps(topo, nv, strong, ids, ext)
+    carriers_of_c, T_convex = _cell_maps(topo, nv, strong, ids, convex)
+    T_convex = _same_columns(carriers_of, carriers_of_c, T_convex)
     carriers = ids[strong]
-    new = MultiplierSpace(carriers, carriers.copy(), topo, carriers_of, T, algo=space.algo,
+    new = MultiplierSpace(carriers, carriers.copy(), topo, carriers_of, T, T_convex, algo=space.algo,
                           n_weak=space.n_weak, n_packets=space.n_packets, n_ties=space.n_ties,
                           smallest=space.smallest)
     for a, b, _ in space.tie_edges:                 # the ties that stay merges
@@ -257,6 +288,30 @@ def _aggregation(el, ids, xv, strong, cverts, cx):
     nearest = roots[np.lexsort((key, d), axis=1)[:, 0]]
     wts = el.shape_linear(el.linear_reference(cx[nearest], xv[weak]))          # (w, nv)
     return {ids[i]: (cverts[j], w) for i, j, w in zip(weak, nearest, wts)}
+
+
+def convex_aggregation(ext, xv, ids):
+    """The weak vertices of ``ext`` (see :func:`_aggregation`) as convex combinations
+    of the same roots (:func:`convex_weights`): admissible wherever the roots are,
+    exact for linear fields only when the weak vertex lies in their hull."""
+    pos = np.searchsorted(ids, np.asarray(list(ext), dtype=np.int64))
+    return {g: (roots, convex_weights(xv[np.searchsorted(ids, roots)], xv[i]))
+            for (g, (roots, _)), i in zip(ext.items(), pos)}
+
+
+def _same_columns(carriers_of, other, T_other):
+    """``T_other`` (columns ``other``) with its columns in the order of ``carriers_of``
+    (the same carriers per cell, possibly in another order; a carrier missing from
+    ``carriers_of`` must carry zero weight)."""
+    out = np.zeros(carriers_of.shape[:1] + T_other.shape[1:2] + carriers_of.shape[1:])
+    for j in range(other.shape[1]):
+        g = other[:, j]
+        hit = (carriers_of == g[:, None]) & (g[:, None] >= 0)
+        col = np.argmax(hit, axis=1)
+        ok = hit.any(axis=1)
+        out[np.nonzero(ok)[0], :, col[ok]] += T_other[ok, :, j]
+        assert np.all(np.abs(T_other[~ok, :, j]) < 1e-14), "convex map uses another carrier"
+    return out
 
 
 def _cell_maps(topo, nv, strong, ids, ext):

@@ -53,11 +53,11 @@ def best_errors(model, lags_c, lags_f1):
     from mpi4py import MPI      # initialised by PETSc by now (see _petsc: PML choice first)
 
     problem = model.problem
-    law = problem.law
     xg = problem.points.x
     c = lags_c(x=xg[..., 0], y=xg[..., 1])
     f = lags_f1(x=xg[..., 0], y=xg[..., 1])
-    ids, A, (bc, bf) = _gathered_system(model, [c, law.mu * c * f if law.unknown == "traction" else f])
+    traction = problem.friction_unknown == "traction"
+    ids, A, (bc, bf) = _gathered_system(model, [c, problem.mu * c * f if traction else f])
     solve = spl.factorized(A)
     x = model.layout.create_global_vec()
     x.set(0.0)
@@ -66,7 +66,7 @@ def best_errors(model, lags_c, lags_f1):
     x.setValues(np.r_[ids[own], ids[own] + 1].astype(PETSc.IntType),
                 np.r_[solve(bc)[own], solve(bf)[own]])
     x.assemble()
-    v = problem.point_values(x)
+    v = problem.point_values(x, thresholds_from_x=True)
     mpi = model.comm.tompi4py()
     return {name: mpi.allreduce(float(np.abs(v[name] - ref(x=v["x"], y=v["y"])).max(initial=0.0)),
                                 op=MPI.MAX)

@@ -1,11 +1,14 @@
 """``law = "contact"``: unilateral contact with Coulomb friction (DEFI_CONTACT).
 
 LAGS_C and LAGS_F1 live on the vertices of the cut cells (the multiplier space
-of :mod:`xfemcontact.contact.space`); the terms are code_aster's continuous
-augmented-Lagrangian method (:mod:`xfemcontact.contact.gauss_point`), run by the
-status and threshold loops of :mod:`xfemcontact.solver.loops` through
-:class:`~xfemcontact.contact.gauss_problem.GaussContactProblem`.  Reads the ``[contact]``
-table of the case.
+of :mod:`xfemcontact.contact.space`).  ``[contact] integration`` chooses the
+formulation: ``NOEUD`` (default) writes the conditions at the multiplier dofs
+and at the vertices whose values they extrapolate (:mod:`xfemcontact.contact.nodal`,
+:class:`~xfemcontact.contact.nodal_problem.NodalContactProblem`), ``GAUSS`` is code_aster's continuous method at the
+interface Gauss points (:mod:`xfemcontact.contact.gauss_point`,
+:class:`~xfemcontact.contact.gauss_problem.GaussContactProblem`).  Both run the
+status and threshold loops of :mod:`xfemcontact.solver.loops`.  Reads the
+``[contact]`` table of the case.
 """
 from xfemcontact.contact.laws.base import InterfaceLaw
 
@@ -23,9 +26,13 @@ class Contact(InterfaceLaw):
                            mesh.element.shape_linear(points.xi), points.w)
 
     def problem(self, setup):
-        from xfemcontact.contact.gauss_problem import GaussContactProblem
+        if setup.case.contact.integration == "GAUSS":
+            from xfemcontact.contact.gauss_problem import GaussContactProblem
 
-        return GaussContactProblem(setup)
+            return GaussContactProblem(setup)
+        from xfemcontact.contact.nodal_problem import NodalContactProblem
+
+        return NodalContactProblem(setup)
 
 
 LAW = Contact()

@@ -1,0 +1,118 @@
+"""Contact and Coulomb friction written at the multiplier dofs (``integration = "NOEUD"``).
+
+Each multiplier dof ``a`` (a carrier of :mod:`xfemcontact.contact.space`, whose
+function phi_a >= 0 on the interface) holds the contact pressure lam_a =
+LAGS_C (Pa, negative in compression) and the tangential traction T_a (Pa); the
+interface tractions are lam(x) = sum phi_a lam_a and T(x) = sum phi_a T_a, whose
+virtual work int lam d[u].n + T d[u].tau enters the equilibrium (the Galerkin
+coupling, integrated at the interface Gauss points).  The kinematics of a dof are
+its weights (m):
+
+* D_a = int phi_a ds > 0 (lumped weight);
+* mean gap ``gn_a = int phi_a [u].n ds / D_a`` and mean slip
+  ``gt_a = int phi_a [u].tau ds / D_a`` (m; tau code_aster's tangent).
+
+The conditions hold at each dof, with the friction threshold s_a (Pa, <= 0):
+
+* contact: lam_a <= 0, gn_a >= 0, lam_a gn_a = 0;
+* Coulomb (Tresca for a fixed s): |T_a| <= mu |s_a|; stick (gt_a = 0) or slip
+  with T_a = mu |s_a| sign(gt_a).
+
+That is the augmented complementarity lam_a = min(0, lam_a + rho_n gn_a),
+T_a = proj_[-mu|s_a|, mu|s_a|](T_a + rho_T gt_a) (Alart and Curnier), whose
+solutions do not depend on rho_n, rho_T > 0.  It is solved by active sets
+(primal-dual active sets, i.e. a semi-smooth Newton method: Hueeber and
+Wohlmuth 2005): for given statuses the problem is linear,
+
+* active contact: the row of lam_a is the weighted gap ``D_a gn_a = 0`` and
+  lam_a enters the equilibrium; inactive: ``-D_a lam_a / rho_n = 0``, lam_a is out
+  of the equilibrium;
+* stick: the row of T_a is the weighted slip ``D_a gt_a = 0`` and T_a enters
+  the equilibrium; slip (p = +-1): ``D_a (T_a - mu |s_a| p) / rho_T = 0`` and the
+  fixed traction mu |s_a| p enters the equilibrium; friction inactive (no
+  contact, or no threshold): ``D_a T_a / rho_T = 0``;
+
+symmetric, and rho_n, rho_T only scale the rows of inactive and slipping dofs.
+The statuses then follow from the solution, by rules that do not involve the
+coefficients either: an active dof is released when lam_a > 0 (tension), an
+inactive one enters contact when gn_a < 0 (interpenetration); a sticking dof
+slips when |T_a| > mu |s_a|, in the direction of T_a; a slipping dof sticks
+when it slips against its traction (gt_a p < 0).  (With the solution of the
+previous statuses, the usual test lam + rho_n gn < 0 is the first rule for any
+rho_n; the friction rule takes the stick branch where the usual test could
+jump from one slip direction to the other, which is what makes full-step
+Newton cycle on friction for large COEF_FROT.)
+
+At a converged state every condition holds exactly at the dofs; LAGS_C(x) =
+sum phi_a lam_a <= 0 and LAGS_F1(x) = sum phi_a Lam_a (Lam_a = T_a / (mu s_a), the
+semi-multiplier, |Lam_a| <= 1) are then admissible at every interface point,
+phi_a being non-negative.
+
+Arrays here are per dof (any shape, all the same); statuses: ``chi`` 1 in
+contact, 0 not; ``slip`` 0 stick, +-1 slip direction (also 0 where friction is
+inactive).
+"""
+import numpy as np
+
+#: relative round-off allowed in the status tests (a value within it of a
+#: bound does not change a status)
+ROUNDOFF = 1e-12
+
+
+def contact_status(chi, lam, gn, tol_lam, tol_gap):
+    """New contact statuses: release where lam > tol_lam, enter where gn < -tol_gap."""
+    new = chi.copy()
+    new[(chi == 1) & (lam > tol_lam)] = 0
+    new[(chi == 0) & (gn < -tol_gap)] = 1
+    return new
+
+
+def friction_status(slip, active, T, gt, bound, tol_slip):
+    """New friction statuses of dofs with statuses ``slip`` (0 stick, +-1).
+
+    ``active``: friction on (in contact with a non-zero threshold); ``bound``:
+    mu |s| (Pa; inf: unbounded, every active dof sticks).  Stick -> slip in the
+    direction of T where |T| > bound; slip -> stick where gt p < -tol_slip.
+    """
+    new = np.where(slip == 0,
+                   np.where(np.abs(T) > bound * (1.0 + ROUNDOFF), np.sign(T), 0.0),
+                   np.where(slip * gt < -tol_slip, 0.0, slip))
+    return np.where(active, new, 0.0)
+
+
+def terms(chi, slip, active, lam, T, bound, D, rho_n, rho_T):
+    """Coefficients of the nodal equations for given statuses.
+
+    Returns a dict of arrays: ``cn``, ``ct`` (Pa): the normal and tangential
+    tractions of the dof in the equilibrium (they multiply d(D gn) and d(D gt));
+    ``wn``, ``wt`` (1 or 0): whether the row of lam / T is the weighted gap /
+    slip; ``rl``, ``rT``: the rest of the row of lam / T (the constant part, for
+    inactive and slipping dofs); ``kl``, ``kT``: d rl / d lam, d rT / d T.
+    """
+    on = chi.astype(bool)
+    stick = active & (slip == 0)
+    slips = active & (slip != 0)
+    fixed = np.where(slips, np.where(np.isfinite(bound), bound, 0.0) * slip, 0.0)
+    return {
+        "cn": np.where(on, lam, 0.0),
+        "wn": on.astype(float),
+        "rl": np.where(on, 0.0, -D * lam / rho_n),
+        "kl": np.where(on, 0.0, -D / rho_n),
+        "ct": np.where(stick, T, fixed),
+        "wt": stick.astype(float),
+        "rT": np.where(stick, 0.0, D * (T - fixed) / rho_T),
+        "kT": np.where(stick, 0.0, D / rho_T),
+    }
+
+
+def threshold(lam, scale):
+    """New friction thresholds s = min(lam, 0), 0 where |lam| <= ROUNDOFF * scale."""
+    s = np.minimum(lam, 0.0)
+    return np.where(np.abs(s) <= ROUNDOFF * scale, 0.0, s)
+
+
+def semi_multiplier(T, s, mu):
+    """LAGS_F1 = T / (mu s) (0 where mu s = 0): the traction as code_aster's semi-multiplier."""
+    musig = mu * s
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(musig != 0, T / np.where(musig != 0, musig, 1.0), 0.0)

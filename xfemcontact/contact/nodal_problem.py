@@ -1,0 +1,457 @@
+"""Unilateral contact with Coulomb friction, conditions at the multiplier dofs
+(``[contact] integration = "NOEUD"``, the default).
+
+The equations are those of :mod:`xfemcontact.contact.nodal`.  The multiplier
+field on a cut cell interpolates vertex values with the cell's linear
+functions N_v >= 0: a carrier's value is its dof; a tied vertex's, a convex
+combination of dofs; a weak vertex's (:mod:`xfemcontact.contact.space`), the
+extrapolation of its root cell -- a combination with negative weights, which is
+what keeps linear fields exact there.  An extrapolated value can leave the
+admissible set (tension, a positive threshold, or a traction above the bound)
+where a contact or stick zone ends.  Such a *dependent vertex* then takes a
+convex combination of the same roots instead (admissible wherever the roots
+are): within a threshold iteration the switch is one way, so the status loop
+cannot cycle, and every vertex value, hence every point value LAGS_C(x) = sum
+N_v lam(v), T(x) = sum N_v T(v), is admissible.  At each threshold update a
+switched vertex whose extrapolation has become admissible goes back to it, so
+that switches made far from the solution do not outlive it.
+
+Statuses, thresholds and friction statuses of the dofs are stored per interface
+element and carrier slot ``(k, m)``: every element holding a dof computes the
+same value from the same assembled inputs, on every process.  The dependent
+vertices are numbered over every process; their values are reduced over MPI.
+
+Loops (the protocol of :mod:`xfemcontact.contact.problem`):
+
+* Newton (inner SNES): contact statuses and thresholds fixed; the friction
+  statuses are updated at every Jacobian from the current iterate, a
+  semi-smooth Newton on friction;
+* contact status loop: the contact rules after each Newton solve, and the
+  switch of inadmissible dependent vertices;
+* threshold loop: s <- LAGS_C at the dofs.  Without
+  SEUIL_INIT the first threshold iteration sticks wherever there is contact
+  (friction unbounded) instead of starting frictionless: the stick problem is
+  well posed for a body held by the interface alone, the frictionless one is not.
+"""
+from __future__ import annotations
+
+import numpy as np
+from mpi4py import MPI
+
+from xfemcontact._petsc import PETSc
+from xfemcontact.contact import nodal
+from xfemcontact.contact.dofmap import multiplier_dofs
+from xfemcontact.contact.operator import InterfaceOperator
+from xfemcontact.contact.problem import InterfaceProblem, InterfaceSetup
+from xfemcontact.contact.scales import coefficients
+from xfemcontact.contact.threshold import ThresholdUpdate
+
+#: a weight below this (in absolute value) is taken as zero when looking for
+#: dependent vertices (extrapolations with a negative weight)
+NEGATIVE = -1e-14
+
+
+class NodalContactProblem(InterfaceProblem):
+    """Contact and friction at the multiplier dofs (see the module documentation)."""
+
+    fallbacks = False
+    friction_unknown = "traction"
+
+    def __init__(self, setup: InterfaceSetup):
+        mesh, c = setup.mesh, setup.case.contact
+        self.comm = mesh.comm
+        self._mpi = self.comm.tompi4py()
+        self.segments, self.points, self.space = setup.geo.segments(), setup.points, setup.space
+        dofs = multiplier_dofs(mesh, setup.layout, setup.space, self.segments)
+        self.rep_index = dofs.rep_index
+        self.pattern_points, self.remote_points = dofs.element_points, dofs.remote_points
+        self.mu, self.friction = c.coulomb, c.friction
+        self.loops = ("contact", "friction") if self.friction else ("contact",)
+        self._op = op = InterfaceOperator(mesh, setup.geo, setup.layout, setup.space, self.rep_index,
+                                          None, setup.points)
+        self.indices = op.gidx
+        self.phi = op.phi
+        self.law = None
+        self._nh, self._m = 2 * op.nn, op.nv
+        self.slot = self.rep_index >= 0                                  # (k, m) live slots
+        self._y = setup.layout.create_global_vec()
+        self._kinematics(mesh.element, setup.points)
+        self._dependent_vertices()
+        scales = coefficients(setup.case, mesh, setup.geo)
+        self.rho_n, self._coef_frot, self._h = scales.coef_cont, scales.coef_frot, scales.h
+        self.rho_T = None                                                 # Pa/m, see _set_rho_T
+        shape = self.rep_index.shape
+        start = 1 if c.contact_init is not False else 0
+        self.chi = np.where(self.slot, start, 0)                          # dof contact statuses
+        self.slip = np.zeros(shape)                                       # dof friction statuses
+        self.extrapolated = np.ones(self.n_dep, bool)                     # dependent vertices' mode
+        s0 = -abs(float(c.seuil_init)) if (c.seuil_init is not None and self.friction) else 0.0
+        self.unbounded = self.friction and s0 == 0.0         # first thresholds from a sticking solve
+        self.free_start = False
+        self.s = np.where(self.slot, s0, 0.0)
+        self._set_rho_T(abs(s0) if s0 else None)
+        self._functions()
+        g = self.indices[:, self._nh:self._nh + self._m]
+        lo, hi = self._y.getOwnershipRange()
+        first = np.zeros(g.shape, bool)
+        own = self.slot & (g >= lo) & (g < hi)
+        first.flat[np.flatnonzero(own)[np.unique(g[own], return_index=True)[1]]] = True
+        self._once = first                       # one slot per owned dof (inner products)
+        ids = np.where(self.slot, self.space.representative(np.where(self.slot, self.space.carriers_of,
+                                                                     self.space.ids[0])), -1)
+        self._dof_id = ids                       # input id of each slot's dof (partition-free order)
+        self._mark = ((ids * 2654435761) % 4294967296) / 4294967296.0 + 0.5
+        self._seen_contact, self._seen_slip = set(), set()
+        self._accelerated = ThresholdUpdate(
+            lambda a, b: self._mpi.allreduce(float((a[self._once] * b[self._once]).sum())))
+
+    # -- set-up ---------------------------------------------------------------------
+    def _kinematics(self, el, pts):
+        """Per vertex row of every element: its linear function at the Gauss points,
+        and the shares of the weighted gap and slip operators (batched)."""
+        op = self._op
+        w = pts.w
+        self._lin = el.shape_linear(pts.xi)                                     # (k, q, nv)
+        a_n, a_t = op._operators()                                              # (k, q, 2nn)
+        self._An = np.einsum("kq,kqv,kqd->kvd", w, self._lin, a_n)              # (k, nv, 2nn), m
+        self._At = np.einsum("kq,kqv,kqd->kvd", w, self._lin, a_t)
+        self._Wv = np.einsum("kq,kqv->kv", w, self._lin)                        # (k, nv), m
+
+    def _dependent_vertices(self):
+        """Rows (element, vertex) whose value extrapolates dofs with a negative weight,
+        numbered over every process by their vertex's input id."""
+        dep = (self.space.T < NEGATIVE).any(axis=2)                              # (k, nv)
+        vid = self.space.topo.verts
+        ids = np.unique(np.concatenate(self._mpi.allgather(vid[dep])))
+        self.n_dep = len(ids)
+        self._dep = dep
+        self._dep_index = np.where(dep, np.searchsorted(ids, np.where(dep, vid, ids[0] if len(ids) else 0)), -1)
+
+    def _functions(self):
+        """The vertex map ``T (k, nv, m)`` of the current modes of the dependent vertices,
+        and the weighted gap and slip operators ``(k, m, 2nn)`` and weights ``(k, m)``
+        of the dofs (element shares and assembled)."""
+        convex = self._dep & ~(self.extrapolated[np.maximum(self._dep_index, 0)] if self.n_dep else True)
+        self._Tv = np.where(convex[:, :, None], self.space.T_convex, self.space.T)
+        self._Bn = np.einsum("kvm,kvd->kmd", self._Tv, self._An)
+        self._Bt = np.einsum("kvm,kvd->kmd", self._Tv, self._At)
+        self._Dk = np.einsum("kvm,kv->km", self._Tv, self._Wv)
+        self._D = self._assembled(self._Dk, self._Dk)[0]
+
+    # -- assembly of dof and dependent-vertex sums ----------------------------------
+    def _assembled(self, share_c, share_f):
+        """Sum over elements of per-slot shares ``(k, m)`` (LAGS_C and LAGS_F1 slots):
+        the dof values, back at every slot."""
+        y, g = self._y, self.indices
+        nh, m = self._nh, self._m
+        y.set(0.0)
+        live = self.slot
+        idx = np.r_[g[:, nh:nh + m][live], g[:, nh + m:][live]].astype(PETSc.IntType)
+        if len(idx):
+            y.setValues(idx, np.r_[share_c[live], share_f[live]], addv=PETSc.InsertMode.ADD_VALUES)
+        y.assemblyBegin()
+        y.assemblyEnd()
+        ve = self._op.element_values(y)
+        return ve[:, nh:nh + m], ve[:, nh + m:]
+
+    def _dep_value(self, rows):
+        """One value per dependent vertex from per-row values ``(k, nv)`` that agree to
+        round-off (the smallest, so that every process gets the same)."""
+        out = np.full(self.n_dep, np.inf)
+        np.minimum.at(out, self._dep_index[self._dep], rows[self._dep])
+        if self.n_dep and self._mpi.size > 1:
+            self._mpi.Allreduce(MPI.IN_PLACE, out, op=MPI.MIN)
+        return out
+
+    def _max(self, a):
+        return self._mpi.allreduce(float(np.abs(a).max(initial=0.0)), op=MPI.MAX)
+
+    # -- cycles ---------------------------------------------------------------------
+    def _fingerprint(self, values):
+        """A number that identifies the statuses ``values (k, m)`` of every dof."""
+        return round(self._mpi.allreduce(float(((values + 2.0) * self._mark)[self._once].sum())), 9)
+
+    def _first_change(self, changed):
+        """``changed (k, m)`` reduced to the dof of least input id (all processes)."""
+        ids = np.where(changed & self.slot, self._dof_id, np.iinfo(np.int64).max)
+        least = self._mpi.allreduce(int(ids.min(initial=np.iinfo(np.int64).max)), op=MPI.MIN)
+        return changed & (self._dof_id == least)
+
+    def _no_cycle(self, old, new, seen):
+        """``new`` statuses, or -- when they were met before since ``seen`` was cleared
+        (active sets cycle where the Schur complement is no M-matrix) -- ``old`` with
+        only the change of least dof id (Murty's least-index rule, which ends for
+        positive definite problems)."""
+        if self._fingerprint(new) in seen:
+            one = self._first_change(new != old)
+            new = np.where(one, new, old)
+        return new
+
+    # -- state at x -----------------------------------------------------------------
+    def _values(self, x):
+        """Element values and the dof and vertex fields at ``x``."""
+        ve = self._op.element_values(x)
+        nh, m = self._nh, self._m
+        h, lam, T = ve[:, :nh], ve[:, nh:nh + m], ve[:, nh + m:]
+        return ve, h, lam, T
+
+    def _bounds(self):
+        """Friction active at the dofs ``(k, m)`` and their bound mu |s| (Pa; inf unbounded)."""
+        on = (self.chi == 1) & self.slot & self.friction
+        if self.unbounded:
+            return on, np.full(self.s.shape, np.inf)
+        bound = self.mu * np.abs(self.s)
+        return on & (bound > 0), bound
+
+    def _friction_statuses(self, x):
+        """The friction statuses the rules give at ``x`` from the committed ones, and
+        the values they come from: ``(slip, h, lam, T, active, bound)``."""
+        ve, h, lam, T = self._values(x)
+        D = np.where(self.slot & (self._D > 0), self._D, 1.0)
+        gt = self._assembled(np.zeros(lam.shape), np.einsum("kmd,kd->km", self._Bt, h))[1] / D
+        active, bound = self._bounds()
+        tol = nodal.ROUNDOFF * self._max(np.where(active, gt, 0.0))
+        slip = self._no_cycle(self.slip, nodal.friction_status(self.slip, active, T, gt, bound, tol),
+                              self._seen_slip)
+        return slip, h, lam, T, active, bound
+
+    def _terms(self, x, commit=False):
+        """Everything the residual and the tangent need at ``x``; with ``commit`` the
+        friction statuses found at ``x`` become the committed ones."""
+        slip, h, lam, T, active, bound = self._friction_statuses(x)
+        if commit:
+            self._seen_slip.add(self._fingerprint(self.slip))
+            self.slip = slip
+        rho_T = self.rho_T if self.rho_T is not None else self.rho_n
+        return h, nodal.terms(self.chi, slip, active, lam, T, bound, self._Dk, self.rho_n, rho_T)
+
+    # -- Newton ---------------------------------------------------------------------
+    def add_residual(self, x, f) -> None:
+        h, t = self._terms(x)
+        Bn, Bt = self._Bn, self._Bt
+        Rh = np.einsum("km,kmd->kd", t["cn"], Bn) + np.einsum("km,kmd->kd", t["ct"], Bt)
+        Rl = t["wn"] * np.einsum("kmd,kd->km", Bn, h) + t["rl"]
+        RT = t["wt"] * np.einsum("kmd,kd->km", Bt, h) + t["rT"]
+        R = np.concatenate([Rh, Rl, RT], axis=1)
+        live = self.indices >= 0
+        f.setValues(self.indices[live].astype(PETSc.IntType), R[live], addv=PETSc.InsertMode.ADD_VALUES)
+        f.assemblyBegin()
+        f.assemblyEnd()
+
+    def tangent(self, x) -> np.ndarray:
+        """Element tangents ``(k, nd, nd)``; commits the friction statuses of ``x``."""
+        h, t = self._terms(x, commit=True)
+        Bt = self._Bt
+        k, nd = self.indices.shape
+        nh, m = self._nh, self._m
+        K = np.zeros((k, nd, nd))
+        Kn = self._Bn * t["wn"][:, :, None]                      # (k, m, 2nn)
+        Kt = Bt * t["wt"][:, :, None]
+        K[:, nh:nh + m, :nh] = Kn
+        K[:, :nh, nh:nh + m] = Kn.transpose(0, 2, 1)
+        K[:, nh + m:, :nh] = Kt
+        K[:, :nh, nh + m:] = Kt.transpose(0, 2, 1)
+        i = np.arange(m)
+        K[:, nh + i, nh + i] = t["kl"]
+        K[:, nh + m + i, nh + m + i] = t["kT"]
+        return K
+
+    def add_matrices(self, J, K) -> None:
+        self._op.add_matrices(J, K)
+
+    def add_product(self, K, x, f, scale=1.0) -> None:
+        self._op.add_product(K, x, f, scale)
+
+    # -- outer loops ----------------------------------------------------------------
+    def _count(self, changed):
+        """Number of distinct dofs (all processes) among the slots ``changed``."""
+        g = np.unique(self.indices[:, self._nh:self._nh + self._m][changed & self.slot])
+        lo, hi = self._y.getOwnershipRange()
+        return self._mpi.allreduce(int(((g >= lo) & (g < hi)).sum()))
+
+    def update_status(self, x) -> int:
+        """Contact statuses of the dofs from ``x``, and the switch of dependent vertices
+        whose extrapolated values are not admissible; returns the number of dofs and
+        vertices that changed (all processes).  In the first threshold iteration
+        without SEUIL_INIT (frictionless, or sticking if that has no equilibrium)
+        the statuses stay as CONTACT_INIT set them: that linear solve only gives
+        the first thresholds."""
+        if self.unbounded or self.free_start:
+            return 0
+        ve, h, lam, T = self._values(x)
+        D = np.where(self.slot & (self._D > 0), self._D, 1.0)
+        gn = self._assembled(np.einsum("kmd,kd->km", self._Bn, h), np.zeros(lam.shape))[0] / D
+        tol_lam = nodal.ROUNDOFF * self._max(lam)
+        tol_gap = nodal.ROUNDOFF * self._max(np.einsum("kvd,kd->kv", np.abs(self._An), np.abs(h))
+                                             / np.maximum(self._Wv, 1e-300))
+        new = np.where(self.slot, nodal.contact_status(self.chi, lam, gn, tol_lam, tol_gap), 0)
+        self._seen_contact.add(self._fingerprint(self.chi))
+        new = self._no_cycle(self.chi, new, self._seen_contact)
+        self._seen_slip.clear()
+        changed = new != self.chi
+        # friction statuses that x contradicts (a Newton solve that started converged,
+        # after a threshold update, evaluated no tangent): they count as changes too
+        slip = self._friction_statuses(x)[0] if self.friction else self.slip
+        held = slip != self.slip
+        self.slip = np.where(changed, 0.0, slip)       # a dof entering contact starts sticking
+        self.chi = new
+        count = self._count(changed | held)
+        switched = self._admissible_vertices(lam, T, tol_lam)
+        if switched:
+            self._functions()
+        return count + switched
+
+    def _inadmissible(self, lam, T, tol_lam):
+        """``(n_dep,)`` whether the extrapolated values of each dependent vertex leave
+        the admissible set (lam > 0, threshold > 0, |T| > mu |s|) for the dof values
+        ``lam``, ``T`` and the current thresholds."""
+        T_ext = self.space.T
+        bad = self._dep_value(np.einsum("kvm,km->kv", T_ext, lam)) > tol_lam
+        if self.friction and not self.unbounded:
+            active, bound = self._bounds()
+            sw = self._dep_value(np.einsum("kvm,km->kv", T_ext, np.where(active, self.s, 0.0)))
+            Tw = np.abs(self._dep_value(np.einsum("kvm,km->kv", T_ext, np.where(active, T, 0.0))))
+            bad |= (sw > tol_lam) | (Tw > self.mu * np.abs(sw) * (1.0 + nodal.ROUNDOFF) + tol_lam * self.mu)
+        return bad
+
+    def _admissible_vertices(self, lam, T, tol_lam):
+        """Switch the extrapolated dependent vertices whose values are not admissible
+        to their convex combination; returns how many switched."""
+        if not self.n_dep or not self.extrapolated.any():
+            return 0
+        bad = self._inadmissible(lam, T, tol_lam) & self.extrapolated
+        self.extrapolated &= ~bad
+        return int(bad.sum())
+
+    def _restore_vertices(self, lam, T):
+        """At a threshold update: dependent vertices switched to their convex
+        combination go back to the extrapolation where it is admissible now, so that
+        a switch made far from the solution does not outlive it."""
+        back = ~self.extrapolated & ~self._inadmissible(lam, T, nodal.ROUNDOFF * self._max(lam))
+        if back.any():
+            self.extrapolated |= back
+            self._functions()
+
+    def update_threshold(self, x) -> np.ndarray:
+        """s <- LAGS_C at the dofs and dependent vertices (friction bounded from now on).
+        Returns an empty mask: no stick predictor is needed."""
+        ve, h, lam, T = self._values(x)
+        self._seen_contact.clear()
+        self._seen_slip.clear()
+        target = np.where(self.slot, nodal.threshold(lam, self._max(lam)), 0.0)
+        if self.unbounded or not np.any(self._mpi.allgather(bool(np.count_nonzero(self.s)))):
+            self.s = target                            # the first thresholds
+        else:
+            key = (self._fingerprint(self.chi), self._fingerprint(self.slip), self.extrapolated.tobytes())
+            self.s = self._accelerated(self.s, target, key)
+        self.unbounded = self.free_start = False
+        self._set_rho_T(self._max(self.s))
+        if not self.extrapolated.all():
+            self._restore_vertices(lam, T)
+        return np.zeros(self.s.shape, bool)
+
+    def _set_rho_T(self, pressure):
+        """rho_T = mu COEF_FROT p (Pa/m), p the pressure scale of the first non-zero
+        thresholds (COEF_CONT without COEF_FROT); fixed once set: it only scales the
+        rows of slipping dofs, and a fixed value keeps the tangent of a converged
+        state unchanged."""
+        if self.rho_T is not None or not pressure:
+            return
+        self.rho_T = self.rho_n if self._coef_frot is None else self.mu * self._coef_frot * pressure
+
+    def threshold_change(self, x, first: bool = False) -> float:
+        """max |LAGS_C - s| / max |LAGS_C| at the dofs: how far the thresholds of the
+        last solve are from its contact pressures (1 when ``first``: the first
+        thresholds are SEUIL_INIT or none)."""
+        lam = self._values(x)[2]
+        if first:
+            return 1.0
+        target = np.where(self.slot, nodal.threshold(lam, self._max(lam)), 0.0)
+        num, den = self._max(np.where(self.slot, target - self.s, 0.0)), self._max(lam)
+        return num / den if den > 0 else (0.0 if num == 0 else np.inf)
+
+    def has_thresholds(self) -> bool:
+        """Friction starts bounded (SEUIL_INIT) or sticking: never frictionless."""
+        return True
+
+    def unbound_friction(self) -> None:
+        """Friction without bound until the next threshold update, contact statuses
+        frozen: the start when the frictionless one has no equilibrium (a body held by
+        the interface alone); that solve only gives the first thresholds."""
+        self.unbounded = True
+
+    def snapshot(self):
+        return (self.chi.copy(), self.slip.copy(), self.s.copy(), self.extrapolated.copy(), self.unbounded,
+                self.free_start)
+
+    def restore(self, snapshot) -> None:
+        chi, slip, s, extrapolated, self.unbounded, self.free_start = snapshot
+        self.chi, self.slip, self.s = chi.copy(), slip.copy(), s.copy()
+        if (extrapolated != self.extrapolated).any():
+            self.extrapolated = extrapolated.copy()
+            self._functions()
+
+    def largest_threshold(self) -> float:
+        return self._max(self.s)
+
+    # -- results --------------------------------------------------------------------
+    def vertex_values(self, x, thresholds_from_x=False):
+        """Values at the vertices of the segment cells ``(k, nv)``: LAGS_C (Pa), the
+        friction traction T the equilibrium holds (Pa: the dof in stick, mu |s| p in
+        slip; 0 where friction is not bounded), the threshold s (Pa; with
+        ``thresholds_from_x`` the LAGS_C of ``x``), contact and sliding (1/0: a
+        dof it depends on is)."""
+        ve, h, lam, T = self._values(x)
+        active, bound = self._bounds()
+        bounded = active & np.isfinite(bound)
+        s = self.s
+        # the traction the equilibrium holds: the dof in stick, mu |s| p in slip
+        T = np.where(active & (self.slip != 0), np.where(bounded, bound, 0.0) * self.slip, T)
+        if thresholds_from_x:
+            s = np.where(self.slot, nodal.threshold(lam, self._max(lam)), 0.0)
+            bounded = self.slot & (s != 0) & self.friction
+        Tv = self._Tv
+        uses = np.abs(Tv) > 0
+        return (np.einsum("kvm,km->kv", Tv, lam), np.einsum("kvm,km->kv", Tv, np.where(bounded, T, 0.0)),
+                np.einsum("kvm,km->kv", Tv, np.where(bounded, s, 0.0)),
+                np.any(uses & (self.chi == 1)[:, None, :], axis=2).astype(float),
+                np.any(uses & (active & (self.slip != 0))[:, None, :], axis=2).astype(float))
+
+    def _end_values(self, x, thresholds_from_x=False):
+        vals = self.vertex_values(x, thresholds_from_x)
+        el = self._op.mesh.element
+        nodes = self.segments.nodes
+
+        def values(ve, phi, end):
+            return _interpolate(el.shape_linear(nodes[:, end]), *vals, self.mu)
+        return values
+
+    def segment_values(self, x, xi, near) -> dict:
+        el = self._op.mesh.element
+        return _interpolate(el.shape_linear(xi), *self.vertex_values(x), self.mu, points="kp")
+
+    def summary(self) -> dict:
+        out = dict(self.space.summary())
+        out.update({"integration": "NOEUD", "dependent_vertices": self.n_dep,
+                    "convex_dependent_vertices": int((~self.extrapolated).sum()),
+                    "coef_cont": self.rho_n, "rho_T": self.rho_T, "h": self._h})
+        return out
+
+
+def _interpolate(lin, lam, T, s, chi, sliding, mu, points="k"):
+    """Point values from vertex values ``(k, nv)`` with the linear functions ``lin``
+    (``(k, nv)`` or ``(k, p, nv)``, all >= 0): LAGS_C = lam(x); LAGS_F1 = T(x) /
+    (mu s(x)), the traction over the interpolated threshold (code_aster's
+    tangential traction mu s LAGS_F1); contact / sliding 1 where a vertex whose
+    function is not zero there is in contact / sliding."""
+    sub = "kv,kv->k" if points == "k" else "kpv,kv->kp"
+    on = lin > 1e-14
+    if points == "kp":
+        def pick(v):
+            return np.max(np.where(on, v[:, None, :], 0.0), axis=-1, initial=0.0)
+    else:
+        def pick(v):
+            return np.max(np.where(on, v, 0.0), axis=-1, initial=0.0)
+    lags_f1 = nodal.semi_multiplier(np.einsum(sub, lin, T), np.einsum(sub, lin, s), mu)
+    return {"LAGS_C": np.einsum(sub, lin, lam), "LAGS_F1": lags_f1,
+            "contact": pick(chi), "sliding": pick(sliding)}

@@ -1,0 +1,43 @@
+"""The natural scales of a contact problem, and the augmentation coefficients they give.
+
+``h``: the mean edge length of the cut cells (m, over every process).  When the
+case gives no COEF_CONT it is E / h (Pa/m: the stiffness of a layer of cells
+per unit area); no COEF_FROT: E / (h mu |p|) (1/m), p the pressure scale of the
+friction threshold, so that COEF_FROT mu |p| = E / h too.  Both are only
+algorithmic (see :mod:`xfemcontact.contact.nodal`): these values keep the
+scaled rows of the tangent of the order of the others.
+"""
+from dataclasses import dataclass
+
+import numpy as np
+from mpi4py import MPI
+
+
+@dataclass(frozen=True)
+class Coefficients:
+    coef_cont: float            # Pa/m
+    coef_frot: float | None     # 1/m; None: E / (h mu |p|), p known once friction is bounded
+    h: float                    # m
+
+
+def mean_cut_edge(mesh, geo):
+    """Mean edge length of the cut cells of every process (m; cells are not shared
+    between processes); the mean over this process's cells when none is cut."""
+    el = mesh.element
+    cells = np.asarray(geo.cut_cells) if geo is not None else np.zeros(0, int)
+    if not len(cells):
+        cells = np.arange(len(mesh.cells))
+    xv = mesh.x[mesh.cell_nodes[cells, :el.nv]]
+    lengths = np.linalg.norm(xv - np.roll(xv, 1, axis=1), axis=2)
+    mpi = mesh.comm.tompi4py()
+    total = mpi.allreduce(float(lengths.sum()), op=MPI.SUM)
+    count = mpi.allreduce(lengths.size, op=MPI.SUM)
+    return total / max(count, 1)
+
+
+def coefficients(case, mesh, geo, weights=None):
+    """COEF_CONT and COEF_FROT of ``case``, or their natural values (see the module)."""
+    c = case.contact
+    h = mean_cut_edge(mesh, geo)
+    E = case.material.E
+    return Coefficients(c.coef_cont if c.coef_cont is not None else E / h, c.coef_frot, h)
