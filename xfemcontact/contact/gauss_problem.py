@@ -13,7 +13,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from xfemcontact._petsc import PETSc
+from xfemcontact import options
 from xfemcontact.contact import gauss_point
 from xfemcontact.contact.dofmap import multiplier_dofs
 from xfemcontact.contact.operator import InterfaceOperator
@@ -34,7 +34,7 @@ class GaussContactProblem(InterfaceProblem):
         dofs = multiplier_dofs(mesh, setup.layout, setup.space, self.segments)
         self.rep_index = dofs.rep_index
         self.pattern_points, self.remote_points = dofs.element_points, dofs.remote_points
-        unknown = PETSc.Options().getString("xfc_friction_unknown", c.friction_unknown).upper()
+        unknown = options.get("friction_unknown", c.friction_unknown)      # -xfc_friction_unknown, checked
         scales = coefficients(setup.case, mesh, setup.geo)
         # without COEF_FROT: E / (h mu |p|), p = SEUIL_INIT or the first threshold (see update_threshold)
         self._natural_frot = None
