@@ -68,6 +68,7 @@ class Interface:
     level_set: Formula | None
     level_set_field: str | None
     law: str                          # "contact" | "bonded" | "free"
+    max_offset: float = 0.5           # refused beyond (fraction of h), see preflight
 
 
 @dataclass(frozen=True)
@@ -318,6 +319,12 @@ class _Walker:
     def _str(self, key, raw, at, siblings):
         if not isinstance(raw, str):
             self.fail(at, f"expected a string, got {_show(raw)}")
+        bad = next((i for i, c in enumerate(raw) if not c.isprintable()), None)
+        if bad is not None:
+            self.fail(at, f"control character U+{ord(raw[bad]):04X} at position {bad + 1} "
+                          f"(one line of printable text)")
+        if len(raw) > key.max_length:
+            self.fail(at, f"too long ({len(raw)} characters, at most {key.max_length})")
         return raw
 
     def _choice(self, key, raw, at, siblings):
@@ -387,15 +394,21 @@ class _Walker:
         return low, high
 
     def _file(self, key, raw, at, siblings):
-        name = self._str(key, raw, at, siblings)
+        if not isinstance(raw, str):
+            self.fail(at, f"expected a string, got {_show(raw)}")
+        name = raw
         try:
             path = (self.folder / name).resolve()
-            found = path.is_file()
+            found = path.exists()
+            regular = path.is_file()
         except (OSError, ValueError, RuntimeError):
-            path, found = self.folder / name, False
+            path, found, regular = self.folder / name, False, False
         if not found:
             self.fail(at, f"mesh file not found: {_printable(str(path))} (paths are relative "
                           f"to the case file's folder)")
+        if not regular:
+            self.fail(at, f"{_printable(str(path))}: {_kind(path)}, not a mesh file (give a "
+                          f"regular file)")
         return path
 
     def _table(self, key, raw, at, siblings):
@@ -493,8 +506,30 @@ def _build(v, path, source, params):
         output=Output(**v["output"]))
 
 
+def _kind(path):
+    """What a path that is not a regular file is, in words."""
+    import stat
+
+    try:
+        mode = path.stat().st_mode
+    except OSError:
+        return "cannot be read"
+    for test, what in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return what
+    return "not a regular file"
+
+
 def _check_case(case, fail):
     """The checks that involve several tables."""
+    names = {}
+    for test in case.tests:
+        if test.name in names:
+            fail(f"{test.key}.name", f"duplicate test name {_show(test.name)} (also "
+                                     f"{names[test.name]}): give each [[test]] its own name")
+        names[test.name] = test.key
     if (case.interface is not None and case.interface.level_set_field is not None
             and case.mesh.file is None):
         fail("interface.level_set_field", "needs a mesh file with point data (a rectangle "

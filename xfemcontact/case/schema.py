@@ -17,7 +17,8 @@ Value types (``Key.type``):
 * ``float``: an int or float (never a bool), finite, within the bounds
   ``gt``/``ge``/``lt``/``le``; stored as float.
 * ``int``: an int only (``2.0`` is refused), within the bounds.
-* ``str``: any string.
+* ``str``: one line of printable text (no control characters), at most
+  ``max_length`` characters.
 * ``choice``: a string matched case-insensitively against ``choices``, stored
   in the spelling of ``choices`` (or mapped through ``values``); with
   ``booleans``, TOML ``true``/``false`` are accepted as ``"OUI"``/``"NON"``;
@@ -65,6 +66,9 @@ CRITERIA = ("ABSOLU", "RELATIF")
 OUTPUT_FORMATS = ("xdmf", "vtu", "med")
 MAX_REFINE = 6
 MAX_CELLS_PER_SIDE = 10000
+#: most iterations of any loop (ITER_GLOB_MAXI, ITER_CONT_MAXI, ITER_FROT_MAXI and the
+#: options overriding them): far beyond any useful count, far below PETSc's integers
+MAX_ITERATIONS = 1000000
 
 #: names a parameter may not take, with what they already are
 RESERVED_NAMES = {
@@ -100,6 +104,7 @@ class Key:
     table: "Table | None" = None
     context: str | None = None
     variables: dict | None = None
+    max_length: int = 200
 
 
 @dataclass(frozen=True)
@@ -204,6 +209,9 @@ INTERFACE = Table({
     "level_set": formula("normal level set (FONC_LN), formula of x, y"),
     "level_set_field": Key("str", "name of nodal point data of the mesh file"),
     "law": Key("choice", "interface behaviour", default="contact", choices=LAWS),
+    "max_offset": Key("float", "largest distance accepted between the zero of level_set and "
+                      "the interface the mesh represents, as a fraction of the cell size (beyond "
+                      "it the case is refused: refine the mesh, or raise this)", default=0.5, gt=0),
 }, doc="DEFI_FISS_XFEM: the interface",
     rules=(ExactlyOne(("level_set", "level_set_field")),))
 
@@ -224,8 +232,10 @@ CONTACT = Table({
                         values={"OUI": True, "NON": False, "INTERPENETRE": "interpenetrated"},
                         booleans=True),
     "seuil_init": Key("float", "initial friction threshold in Pa, negative = compression"),
-    "iter_cont_maxi": Key("int", "most contact status iterations", default=30, ge=1),
-    "iter_frot_maxi": Key("int", "most friction threshold iterations", default=10, ge=1),
+    "iter_cont_maxi": Key("int", "most contact status iterations", default=30, ge=1,
+                          le=MAX_ITERATIONS),
+    "iter_frot_maxi": Key("int", "most friction threshold iterations", default=10, ge=1,
+                          le=MAX_ITERATIONS),
     "resi_frot": Key("float", "friction threshold convergence tolerance", default=1e-4, gt=0),
     "ordre_int": Key("int", "Gauss points per interface segment (default: 4, code_aster's, "
                      "or 8 where a cut cell is not affine: the shape functions of a distorted "
@@ -246,7 +256,7 @@ CONTACT = Table({
 
 NEWTON = Table({
     "resi_glob_rela": Key("float", "relative residual tolerance", default=1e-6, gt=0),
-    "iter_glob_maxi": Key("int", "most Newton iterations", default=20, ge=1),
+    "iter_glob_maxi": Key("int", "most Newton iterations", default=20, ge=1, le=MAX_ITERATIONS),
 }, doc="STAT_NON_LINE CONVERGENCE")
 
 REFERENCE = Table({
@@ -255,7 +265,7 @@ REFERENCE = Table({
 
 _NOT_MAX_ERROR = tuple(t for t in TEST_TYPES if t != "MAX_ERROR")
 TEST = Table({
-    "name": Key("str", "name of the test"),
+    "name": Key("str", "name of the test (each test its own)", max_length=100),
     "field": Key("choice", "tested field", required=True, choices=FIELDS),
     "type": Key("choice", "what is tested", required=True, choices=TEST_TYPES),
     "where": Key("condition", "condition selecting the points tested", context="field",
@@ -301,9 +311,14 @@ CASE = Table({
 
 def bounds(key):
     """The range of a numeric key in words, such as ``"> -1 and < 0.5"`` ("" if none)."""
-    parts = [f"{op} {limit:g}" for op, limit in
+    parts = [f"{op} {_number(limit)}" for op, limit in
              ((">", key.gt), (">=", key.ge), ("<", key.lt), ("<=", key.le)) if limit is not None]
     return " and ".join(parts)
+
+
+def _number(value):
+    """``1000000`` for whole numbers (as written in a case file), ``0.5`` otherwise."""
+    return str(int(value)) if float(value).is_integer() and abs(value) < 1e15 else f"{value:g}"
 
 
 def reference(table=CASE, prefix=""):
