@@ -134,12 +134,16 @@ def test_existing_output_folder_then_overwrite(tmp_path):
     assert "--overwrite" in lines[0]
     assert listing(tmp_path) == ["case.toml", "out", "out/keep.txt"]     # untouched
 
+    (out / "keep.txt").unlink()                  # an empty folder holds nothing to lose
+    assert run_cli(["run", case, "-o", out, "--overwrite"], timeout=TIMEOUT).returncode == 0
+    before = (out / "results.json").read_text()
     proc = run_cli(["run", case, "-o", out, "--overwrite"], timeout=TIMEOUT)
     assert proc.returncode == 0, proc.stderr
     assert results(out)["converged"] is True
-    assert not (out / "keep.txt").exists()
-    files = listing(tmp_path)                                   # replaced, keep.txt gone
-    assert "out/keep.txt" not in files and {"out/results.json", "out/fields.xdmf"} <= set(files)
+    assert (out / "results.json").read_text() != before               # replaced (timings)
+    files = listing(tmp_path)
+    assert {"out/results.json", "out/fields.xdmf", "out/.xfemcontact"} <= set(files)
+    assert [f for f in files if not f.startswith("out/")] == ["case.toml", "out"]
 
 
 def test_default_output_folder(tmp_path):

@@ -475,12 +475,12 @@ def test_sigterm_while_writing_leaves_nothing(tmp_path):
 def test_sigterm_with_overwrite_keeps_previous_results(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
-    (out / "results.json").write_text('{"previous": true}\n')
+    (out / "results.json").write_text('{"xfemcontact": "0.1.0", "previous": true}\n')
     code, stderr, out = _interrupt_while_writing(tmp_path, signal.SIGTERM, "--overwrite")
     assert code == 143, stderr
     assert stderr.strip() == f"interrupted (SIGTERM): previous results in {out} kept"
     assert listing(tmp_path) == ["case.toml", "out", "out/results.json"]
-    assert json.loads((out / "results.json").read_text()) == {"previous": True}
+    assert json.loads((out / "results.json").read_text())["previous"] is True
 
 
 def test_sigint_while_solving(tmp_path):
@@ -504,25 +504,25 @@ def test_interrupt_during_commit_is_held_back(tmp_path):
 
     out = tmp_path / "out"
     out.mkdir()
-    (out / "old.txt").write_text("old")
+    (out / "results.json").write_text('{"xfemcontact": "0.1.0"}')     # earlier results of ours
     f = folder_mod.OutputFolder(out, overwrite=True)
     f.write_text("results.json", "{}")
     previous = folder_mod.handle_signals()
     try:
-        real_rename = os.rename
+        real_exchange = folder_mod.exchange
 
-        def rename_then_signal(src, dst):   # the signal comes between the two renames
-            real_rename(src, dst)
-            if ".old-" in str(dst):
-                os.kill(os.getpid(), signal.SIGTERM)
-                time.sleep(0.05)
+        def exchange_then_signal(a, b):     # the signal comes while the folders are swapped
+            real_exchange(a, b)
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(0.05)
         with pytest.MonkeyPatch.context() as mp:
-            mp.setattr(os, "rename", rename_then_signal)
+            mp.setattr(folder_mod, "exchange", exchange_then_signal)
             with pytest.raises(Interrupted) as info:
                 f.commit()
         assert info.value.exit_code == 143
         assert f.outcome() == f"complete results in {out} (the run had finished)"
-        assert listing(tmp_path) == ["out", "out/results.json"]
+        assert listing(tmp_path) == ["out", "out/.xfemcontact", "out/results.json"]
+        assert (out / "results.json").read_text() == "{}"
     finally:
         folder_mod.restore_signals(previous)
 

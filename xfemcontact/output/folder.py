@@ -1,20 +1,41 @@
-"""An output folder that is complete or absent.
+"""An output folder that is complete or absent, and never anything but ours.
 
-Files are written into a hidden temporary folder next to the target; on
-success it replaces the target in one rename (an existing target is only
-replaced with ``overwrite``).  On failure or interruption the temporary folder
-is removed and the previous results, if any, are left untouched.  Only rank 0
+Files are written into a hidden temporary folder next to the target
+(``.NAME.tmp-PID``); on success it takes the target's place in one atomic step
+(:meth:`OutputFolder.commit`).  On failure or interruption the temporary folder is
+removed and the previous results, if any, are left untouched.  Only rank 0
 touches the file system.
 
-Interruptions: :func:`handle_signals` turns SIGINT and SIGTERM into
-:class:`~xfemcontact.errors.Interrupted`, raised in the main thread; the run
-aborts its folder on the way up (:meth:`OutputFolder.abort`) and
+Before anything else (:class:`OutputFolder` at construction, before the mesh is
+read) the location is checked: an existing target is replaced only with
+``overwrite`` and only when it is a result folder xfemcontact wrote
+(:func:`ours`: it carries the mark file :data:`MARK`, listing the files written,
+and holds nothing else); the temporary folder is created (missing parents too),
+written to and removed again, so a read-only, full or unreachable location, a
+name too long or a parent that is a file are refused at once (exit code 2).
+Temporary folders left by earlier runs that were killed (no process holds their
+lock any more) are removed, and a previous result folder set aside by a
+replacement that was cut short is put back.
+
+The replacement: ``renameat2(RENAME_EXCHANGE)`` swaps the finished folder and the
+target in one step (Linux 3.15+, on ext4, XFS, Btrfs, tmpfs ...), then the old
+results are removed.  Where the file system cannot exchange, the old target is
+renamed aside (``.NAME.old-PID``) and the new folder renamed into place: a crash
+between the two leaves the old results complete under that name, and the next
+run with the same target puts them back.  Files are flushed to disk (fsync)
+before the swap, so a machine crash leaves the old or the new folder complete.
+
+Interruptions: :func:`handle_signals` turns SIGINT, SIGTERM and SIGHUP into
+:class:`~xfemcontact.errors.Interrupted`, raised in the main thread, and lets a
+closed standard output raise ``BrokenPipeError`` (SIGPIPE ignored); the run aborts
+its folder on the way up (:meth:`OutputFolder.abort`) and
 :meth:`OutputFolder.outcome` says what is left.  A signal received while the
-finished folder replaces the target (:meth:`OutputFolder.commit`, two renames)
-is held back until both renames are done, so that the target is always either
-the complete previous results or the complete new ones.
+finished folder replaces the target is held back until the replacement is done.
 """
 import contextlib
+import ctypes
+import errno
+import fcntl
 import json
 import os
 import shutil
@@ -23,8 +44,16 @@ from pathlib import Path
 
 from xfemcontact.errors import CaseError, Interrupted
 
-#: the signals :func:`handle_signals` catches
-SIGNALS = (signal.SIGINT, signal.SIGTERM)
+#: the signals :func:`handle_signals` turns into Interrupted
+SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+#: the mark of a result folder written by xfemcontact (JSON: who, version, files)
+MARK = ".xfemcontact"
+#: files of result folders written before the mark existed
+LEGACY_FILES = ("results.json", "report.md", "interface.csv", "fields.xdmf", "fields.h5",
+                "fields.vtu", "fields.med", "plot_multipliers.png", "plot_deformed.png",
+                "plot_status.png", "plot_convergence.png")
+#: free space below which an output location is refused at once (bytes)
+MIN_FREE_BYTES = 1 << 20
 _held = []           # signals received inside a critical section
 _critical = 0        # depth of critical sections
 _received = []       # every signal received since handle_signals()
@@ -40,27 +69,31 @@ def _handler(signum, frame):
     raise Interrupted(signum)
 
 
-def handle_signals():
-    """Install the SIGINT/SIGTERM handlers (main thread only); returns the previous ones."""
-    _received.clear()
-    _held.clear()
+def handle_signals(reset=True):
+    """Install the SIGINT/SIGTERM/SIGHUP handlers and ignore SIGPIPE (main thread only;
+    call again after PETSc starts, which installs its own); returns the previous ones.
+    ``reset``: forget signals received before."""
+    if reset:
+        _received.clear()
+        _held.clear()
     previous = {}
-    for sig in SIGNALS:
+    for sig, handler in [(s, _handler) for s in SIGNALS] + [(signal.SIGPIPE, signal.SIG_IGN)]:
         try:
-            previous[sig] = signal.signal(sig, _handler)
-        except ValueError:   # not the main thread: leave the defaults
+            previous[sig] = signal.signal(sig, handler)
+        except (ValueError, OSError):   # not the main thread: leave the defaults
             pass
     return previous
 
 
 def restore_signals(previous):
     for sig, handler in previous.items():
-        signal.signal(sig, handler)
+        if handler is not None:
+            signal.signal(sig, handler)
 
 
 @contextlib.contextmanager
 def critical():
-    """Hold SIGINT/SIGTERM back inside the block; raise Interrupted after it if one came."""
+    """Hold SIGINT/SIGTERM/SIGHUP back inside the block; raise Interrupted after it if one came."""
     global _critical
     _critical += 1
     try:
@@ -71,14 +104,191 @@ def critical():
         raise Interrupted(_held.pop())
 
 
+# --- what is ours ---------------------------------------------------------------------
+
+def ours(path):
+    """``(True, "")`` if ``path`` is a result folder xfemcontact wrote and holds nothing
+    else (or an empty folder), else ``(False, why)``."""
+    path = Path(path)
+    try:
+        entries = sorted(p.name for p in path.iterdir())
+    except OSError as exc:
+        return False, f"cannot be read ({exc.strerror})"
+    if not entries:
+        return True, ""
+    listed = None
+    if MARK in entries:
+        try:
+            mark = json.loads((path / MARK).read_text(encoding="utf-8"))
+            if mark.get("written_by") == "xfemcontact":
+                listed = set(mark.get("files") or ()) | {MARK}
+        except (OSError, ValueError, AttributeError, TypeError):
+            listed = None
+    elif "results.json" in entries:           # written before the mark existed
+        try:
+            with open(path / "results.json", encoding="utf-8") as f:
+                head = json.loads(f.read(1 << 24))
+            if isinstance(head, dict) and "xfemcontact" in head:
+                listed = set(LEGACY_FILES)
+        except (OSError, ValueError):
+            listed = None
+    if listed is None:
+        shown = ", ".join(_short(e) for e in entries[:3]) + (", ..." if len(entries) > 3 else "")
+        return False, f"not a result folder of xfemcontact (it holds {shown})"
+    extra = [e for e in entries if e not in listed]
+    if extra:
+        shown = ", ".join(_short(e) for e in extra[:3]) + (", ..." if len(extra) > 3 else "")
+        return False, f"holds files xfemcontact did not write ({shown})"
+    return True, ""
+
+
+def _short(name, limit=40):
+    name = "".join(c if c.isprintable() else "?" for c in name)
+    return name if len(name) <= limit else name[:limit - 3] + "..."
+
+
+# --- atomic exchange ------------------------------------------------------------------------
+
+_RENAME_NOREPLACE, _RENAME_EXCHANGE = 1, 2
+_AT_FDCWD = -100
+
+
+def _renameat2(src, dst, flags):
+    """``renameat2(src, dst, flags)``; raises OSError (ENOSYS/EINVAL when unsupported)."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        fn = libc.renameat2
+    except (OSError, AttributeError):
+        raise OSError(errno.ENOSYS, "renameat2 is not available") from None
+    fn.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
+    fn.restype = ctypes.c_int
+    if fn(_AT_FDCWD, os.fsencode(src), _AT_FDCWD, os.fsencode(dst), flags) != 0:
+        code = ctypes.get_errno()
+        raise OSError(code, os.strerror(code), str(src))
+
+
+def exchange(a, b):
+    """Swap the folders ``a`` and ``b`` atomically; OSError if the system cannot."""
+    _renameat2(a, b, _RENAME_EXCHANGE)
+
+
+_UNSUPPORTED = (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP, errno.EOPNOTSUPP)
+
+
+def _fsync_tree(root):
+    """Flush the files of ``root`` and the folder itself to disk."""
+    for dirpath, _, files in os.walk(root):
+        for name in files:
+            with contextlib.suppress(OSError):
+                fd = os.open(os.path.join(dirpath, name), os.O_RDONLY)
+                try:
+                    os.fsync(fd)
+                finally:
+                    os.close(fd)
+        _fsync_dir(dirpath)
+
+
+def _fsync_dir(path):
+    with contextlib.suppress(OSError):
+        fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def _lock(path):
+    """An exclusive lock on folder ``path`` (an open descriptor), None if another holds it."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        os.close(fd)
+        return None
+    return fd
+
+
+def _unlock(fd):
+    if fd is not None:
+        with contextlib.suppress(OSError):
+            os.close(fd)
+
+
+def clean_stale(target):
+    """Remove the temporary folders of earlier runs on ``target`` that were killed, and put
+    back a previous result folder set aside by a replacement cut short.  Returns the
+    names removed or restored.  A folder some running process holds (its lock) is left."""
+    target = Path(target)
+    done = []
+    try:
+        siblings = list(target.parent.iterdir()) if target.parent.is_dir() else []
+    except OSError:
+        return done
+    for p in sorted(siblings):
+        name = p.name
+        for kind in (".tmp-", ".old-"):
+            prefix = f".{target.name}{kind}"
+            if not name.startswith(prefix) or not name[len(prefix):].isdigit() or p.is_symlink() \
+                    or not p.is_dir():
+                continue
+            fd = _lock(p)
+            if fd is None:                   # a running process owns it
+                continue
+            try:
+                if not _made_by_us(p):
+                    continue
+                if kind == ".old-" and not os.path.lexists(target):
+                    os.rename(p, target)     # the replacement was cut short: old results back
+                    done.append(f"{name} -> {target.name}")
+                else:
+                    shutil.rmtree(p, ignore_errors=True)
+                    done.append(name)
+            except OSError:
+                pass
+            finally:
+                _unlock(fd)
+    return done
+
+
+#: an empty temporary folder younger than this may be one a run has just made (s)
+_YOUNG = 60.0
+
+
+def _made_by_us(path):
+    """Whether a leftover folder is ours: it has our mark (complete or being written),
+    is a result folder of ours, or is empty and not new."""
+    try:
+        mark = json.loads((path / MARK).read_text(encoding="utf-8"))
+        if isinstance(mark, dict) and mark.get("written_by") == "xfemcontact":
+            return True
+    except (OSError, ValueError):
+        pass
+    try:
+        if not any(path.iterdir()):
+            import time
+
+            return time.time() - path.stat().st_mtime > _YOUNG
+    except OSError:
+        return False
+    return ours(path)[0]
+
+
+# --- the folder ------------------------------------------------------------------------
+
 class OutputFolder:
     def __init__(self, path, overwrite=False, comm=None):
         """``comm``: an mpi4py communicator (rank 0 decides, everybody learns)."""
         self.path = Path(path)
         self.rank = comm.rank if comm is not None else 0
         self.tmp = self.path.parent / f".{self.path.name}.tmp-{os.getpid()}"
+        self.probe = self.path.parent / f".{self.path.name}.probe-{os.getpid()}"
         self._made = []          # folders we created (removed again on abort)
+        self._lock = None
         self.committed = False
+        self.cleaned = []
         problem = self._problem(overwrite) if self.rank == 0 else None
         if comm is not None and comm.size > 1:
             problem = comm.bcast(problem, root=0)
@@ -86,11 +296,86 @@ class OutputFolder:
             raise CaseError(problem)
 
     def _problem(self, overwrite):
+        """What is wrong with the location (one line), or None; checks it can be written."""
+        shown = _short(str(self.path), 200)
+        try:
+            name = self.path.resolve().name if self.path.name in ("", ".", "..") else self.path.name
+        except OSError:
+            name = self.path.name
+        if self.path.name in ("", ".", ".."):
+            # "-o ." names the folder itself: never a folder we would replace in place
+            exists = self.path.exists()
+            if exists and not overwrite:
+                return (f"{shown}: output folder exists (use --overwrite to replace it, "
+                        f"or -o to choose another)")
+            if exists:
+                ok, why = ours(self.path)
+                if not ok:
+                    return (f"{shown}: {why}: --overwrite replaces only result folders "
+                            f"xfemcontact wrote (choose another -o)")
+                return f"{shown}: give the result folder by its name, not as '{self.path.name}'"
+        try:
+            limit = os.pathconf(self._existing_parent(), "PC_NAME_MAX")
+        except (OSError, ValueError):
+            limit = 255
+        room = limit - len(f"..probe-{os.getpid()}")
+        if len(os.fsencode(name)) > room:
+            return (f"{_short(name, 60)}: output folder name too long "
+                    f"({len(os.fsencode(name))} bytes; at most {room} here)")
+        if self.path.is_symlink():
+            return f"{shown}: is a symbolic link (give the folder itself with -o)"
         if self.path.exists() and not self.path.is_dir():
-            return f"{self.path}: exists and is not a folder"
-        if self.path.exists() and not overwrite:
-            return (f"{self.path}: output folder exists (use --overwrite to replace it, "
-                    f"or -o to choose another)")
+            return f"{shown}: exists and is not a folder"
+        if self.path.exists():
+            if not overwrite:
+                return (f"{shown}: output folder exists (use --overwrite to replace it, "
+                        f"or -o to choose another)")
+            ok, why = ours(self.path)
+            if not ok:
+                return (f"{shown}: {why}: --overwrite replaces only result folders "
+                        f"xfemcontact wrote (move what you keep there, or choose another -o)")
+        self.cleaned = clean_stale(self.path) if self.path.parent.is_dir() else []
+        return self._probe()
+
+    def _existing_parent(self):
+        p = self.path.absolute().parent
+        while not p.exists() and p != p.parent:
+            p = p.parent
+        return p
+
+    def _probe(self):
+        """Create the temporary folder (and missing parents), write to it, remove it all:
+        the location is writable now.  A message, or None."""
+        made = []
+        try:
+            parent = self._existing_parent()
+            if not parent.is_dir():
+                return f"{_short(str(self.path), 200)}: cannot create the output folder: " \
+                       f"{_short(str(parent), 100)} is not a folder"
+            missing = [p for p in reversed(self.probe.absolute().parents) if not p.exists()]
+            for p in missing:
+                p.mkdir()
+                made.append(p)
+            self.probe.mkdir()
+            made.append(self.probe)
+            with open(self.probe / MARK, "w", encoding="utf-8") as f:
+                f.write('{"written_by": "xfemcontact", "files": []}\n')
+                f.flush()
+                os.fsync(f.fileno())
+            stats = os.statvfs(self.probe)
+            if stats.f_bavail * stats.f_frsize < MIN_FREE_BYTES:
+                return (f"{_short(str(self.path), 200)}: no room for results "
+                        f"({stats.f_bavail * stats.f_frsize / 1e6:.2g} MB free)")
+        except OSError as exc:
+            where = exc.filename if exc.filename else self.path
+            return (f"{_short(str(self.path), 200)}: cannot create the output folder: "
+                    f"{exc.strerror or exc} ({_short(str(where), 120)})")
+        finally:
+            with contextlib.suppress(OSError):
+                if self.probe in made:
+                    shutil.rmtree(self.probe, ignore_errors=True)
+                for p in reversed(made[:-1] if self.probe in made else made):
+                    p.rmdir()
         return None
 
     def _start(self):
@@ -103,6 +388,9 @@ class OutputFolder:
             shutil.rmtree(self.tmp, ignore_errors=True)
             self.tmp.mkdir()
             self._made = missing + [self.tmp]
+            self._lock = _lock(self.tmp)       # held until the end: not stale
+            (self.tmp / MARK).write_text('{"written_by": "xfemcontact", "files": []}\n',
+                                         encoding="utf-8")
 
     def file(self, name):
         """Path of ``name`` inside the folder being written (created on first use)."""
@@ -119,21 +407,57 @@ class OutputFolder:
             text = json.dumps(_strict(obj), indent=1, default=_jsonable, allow_nan=False)
             self.file(name).write_text(text + "\n", encoding="utf-8")
 
+    def _write_mark(self):
+        from xfemcontact import __version__
+
+        files = sorted(p.name for p in self.tmp.iterdir() if p.name != MARK)
+        mark = {"written_by": "xfemcontact", "version": __version__, "files": files}
+        (self.tmp / MARK).write_text(json.dumps(mark) + "\n", encoding="utf-8")
+
     def commit(self):
         """Replace the target by the finished folder (signals held back meanwhile)."""
         if self.rank != 0:
             self.committed = True
             return
         self._start()
-        old = None
         with critical():
-            if self.path.exists():
-                old = self.path.parent / f".{self.path.name}.old-{os.getpid()}"
-                self.path.rename(old)
-            self.tmp.rename(self.path)
+            self._write_mark()
+            _fsync_tree(self.tmp)
+            if os.path.lexists(self.path):
+                ok, why = ours(self.path) if self.path.is_dir() and not self.path.is_symlink() \
+                    else (False, "is not a folder")
+                if not ok:
+                    raise CaseError(f"{self.path}: {why} (it appeared while the case was "
+                                    f"solved; the new results are not kept)")
+                self._replace()
+            else:
+                try:
+                    _renameat2(self.tmp, self.path, _RENAME_NOREPLACE)
+                except OSError as exc:
+                    if exc.errno not in _UNSUPPORTED:
+                        raise
+                    os.rename(self.tmp, self.path)
             self.committed = True
-            if old is not None:
-                shutil.rmtree(old, ignore_errors=True)
+            _fsync_dir(self.path.parent)
+            _unlock(self._lock)
+            self._lock = None
+            shutil.rmtree(self.tmp, ignore_errors=True)     # the old results, if exchanged
+
+    def _replace(self):
+        """The finished folder in the target's place, the old one at ``self.tmp`` (removed
+        after) or set aside."""
+        try:
+            exchange(self.tmp, self.path)
+            return
+        except OSError as exc:
+            if exc.errno not in _UNSUPPORTED:
+                raise
+        old = self.path.parent / f".{self.path.name}.old-{os.getpid()}"
+        os.rename(self.path, old)
+        _fsync_dir(self.path.parent)
+        os.rename(self.tmp, self.path)        # a crash before this: the next run puts old back
+        _fsync_dir(self.path.parent)
+        shutil.rmtree(old, ignore_errors=True)
 
     def outcome(self):
         """What the target holds now, in words (for the message of an interrupted run)."""
@@ -149,6 +473,8 @@ class OutputFolder:
             return
         with critical():
             shutil.rmtree(self.tmp, ignore_errors=True)
+            _unlock(self._lock)
+            self._lock = None
             for p in reversed(self._made[:-1]):      # parents we made, if still empty
                 try:
                     p.rmdir()
