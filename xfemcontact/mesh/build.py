@@ -13,7 +13,12 @@ def build_raw_mesh(case):
     from xfemcontact.mesh.refine import refine_uniform
 
     spec = case.mesh
-    raw = read_mesh(spec.file, display_name=spec.file.name) if spec.file else rectangle(**spec.rectangle)
+    if spec.file:
+        # the data a mesh file refers to stays with the case or the mesh file
+        roots = [case.path.parent, spec.file.parent]
+        raw = read_mesh(spec.file, display_name=spec.file.name, roots=roots)
+    else:
+        raw = rectangle(**spec.rectangle)
     if spec.refine:
         raw = refine_uniform(raw, spec.refine)
     return raw

@@ -26,14 +26,29 @@ Where the group names come from:
   given as ``vertex`` cells in those sets.
 
 Every failure is a one-line :class:`MeshError` naming the file.
+
+Reading is confined (:func:`check_input`, before meshio reads anything): the file
+must be a regular file; the data an XDMF file refers to (HDF5 or binary DataItems)
+and the HDF5 links and external storage of XDMF's and MED's HDF5 files must stay
+inside the allowed folders (the case file's and the mesh file's), else the file is
+refused without being read; XML declarations of entities and XIncludes are
+refused.  Sizes are bounded: the file, the data it declares (HDF5 datasets) and
+what decompresses from a VTU file may not exceed :func:`size_limit` (a fraction of
+this machine's memory, ``-xfc_mesh_max_mb`` to change it).  Messages never print
+data read from the files referred to.
 """
+import contextlib
 import importlib
 import os
+import re
 
 import numpy as np
 
 from xfemcontact.errors import MeshError
 from xfemcontact.mesh.raw import RawMesh
+
+#: fraction of the machine's memory the data of a mesh file may take by default
+MEMORY_FRACTION = 1 / 16
 
 #: file extension -> meshio format name
 FORMATS = {".med": "med", ".mmed": "med", ".msh": "gmsh",
@@ -49,16 +64,282 @@ _QUAD9_HINT = ("Gmsh writes order-2 quadrilaterals as quad9 unless "
                "Mesh.SecondOrderIncomplete=1")
 
 
-def read_mesh(path, display_name=None):
+def read_mesh(path, display_name=None, roots=None, limit=None):
     """Read the mesh file ``path`` (str or path-like) into a checked :class:`RawMesh`.
 
     ``display_name`` is the name used in messages and kept as ``source``
-    (default: ``path`` as given).  Cells are re-oriented counter-clockwise by
-    :meth:`RawMesh.check`.  Raises :class:`MeshError`.
+    (default: ``path`` as given).  ``roots``: the folders the data it refers to
+    may lie in (default: the mesh file's folder); ``limit``: the largest size
+    in bytes of what it declares (default :func:`size_limit`).  Cells are
+    re-oriented counter-clockwise by :meth:`RawMesh.check`.  Raises
+    :class:`MeshError`.
     """
     source = display_name or os.fspath(path)
     fmt = _file_format(path, source)
-    return from_meshio(_meshio_read(path, fmt, source), source, fmt)
+    limit = size_limit() if limit is None else limit
+    check_input(path, fmt, source, roots, limit)
+    return from_meshio(_meshio_read(path, fmt, source, limit), source, fmt)
+
+
+# -- confinement and sizes ------------------------------------------------------------
+def memory_bytes():
+    """This machine's memory (bytes), or the memory limit of our control group if lower."""
+    try:
+        total = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError):
+        total = 8 << 30
+    for name in ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes"):
+        with contextlib.suppress(OSError, ValueError):
+            with open(name) as f:
+                value = f.read().strip()
+            if value.isdigit() and 0 < int(value) < total:
+                total = int(value)
+    return total
+
+
+def size_limit():
+    """Bytes a mesh file may declare: ``-xfc_mesh_max_mb``, else :data:`MEMORY_FRACTION`
+    of :func:`memory_bytes`."""
+    from xfemcontact import options
+
+    given = options.get("mesh_max_mb")
+    return int(given * 1e6) if given is not None else int(memory_bytes() * MEMORY_FRACTION)
+
+
+def _mb(n):
+    return f"{n / 1e6:.3g} MB"
+
+
+def _too_big(source, what, size, limit):
+    return MeshError(f"{source}: {what} is {_mb(size)}, more than the {_mb(limit)} allowed "
+                     f"(1/16 of this machine's memory; raise it with -xfc_mesh_max_mb)")
+
+
+def check_input(path, fmt, source, roots=None, limit=None):
+    """Refuse, before reading, a mesh file whose data lie outside ``roots`` or whose
+    sizes exceed ``limit`` bytes (see the module documentation)."""
+    limit = size_limit() if limit is None else limit
+    roots = [os.path.realpath(r) for r in (roots or [os.path.dirname(os.path.abspath(path))])]
+    roots = [r for r in roots if r != os.path.dirname(r)] or roots   # never the whole disk
+    size = os.path.getsize(path)
+    if size > limit:
+        raise _too_big(source, "the file", size, limit)
+    if fmt == "xdmf":
+        _check_xdmf(path, source, roots, limit)
+    elif fmt == "med":
+        _check_hdf5(path, source, roots, limit, os.path.basename(path))
+    elif fmt == "vtu":
+        declared = _vtu_declared(path)
+        if declared > limit:
+            raise _too_big(source, "the data it declares (decompressed)", declared, limit)
+
+
+def _inside(target, roots):
+    real = os.path.realpath(target)
+    return any(os.path.commonpath([real, r]) == r for r in roots)
+
+
+def _shown(text, limit=60):
+    text = "".join(c if c.isprintable() else "?" for c in str(text))
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def _outside(source, what, ref):
+    return MeshError(f"{source}: {what} '{_shown(ref)}' lies outside the folders of the case "
+                     f"and mesh files: refused (put the data next to the mesh file)")
+
+
+def _check_xdmf(path, source, roots, limit):
+    from xml.etree import ElementTree as ET
+
+    with open(path, "rb") as f:
+        text = f.read()
+    if re.search(rb"<!(DOCTYPE|ENTITY)", text):
+        raise MeshError(f"{source}: XML document type or entity declarations are not accepted "
+                        f"in mesh files")
+    try:
+        root = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise MeshError(f"{source}: cannot read as XDMF (not well-formed XML: "
+                        f"{_shown(exc, 80)})") from None
+    folder = os.path.dirname(os.path.abspath(path))
+    total = 0
+    for item in root.iter():
+        tag = item.tag.rsplit("}", 1)[-1]
+        if tag == "include":
+            raise MeshError(f"{source}: XInclude elements are not accepted in mesh files")
+        if tag != "DataItem" or "Reference" in item.attrib:
+            continue
+        fmt = item.get("Format", "XML")
+        ref = (item.text or "").strip()
+        if fmt == "Binary":                  # meshio opens it from the working folder
+            if not _inside(ref, roots):
+                raise _outside(source, "binary DataItem", ref)
+            if not os.path.isfile(ref):
+                raise MeshError(f"{source}: binary DataItem '{_shown(ref)}' not found")
+            total += os.path.getsize(ref)
+        elif fmt == "HDF":
+            name = ref.split(":", 1)[0]
+            target = os.path.join(folder, name)
+            if not _inside(target, roots):
+                raise _outside(source, "HDF5 DataItem", name)
+            if not os.path.isfile(target):
+                raise MeshError(f"{source}: HDF5 file '{_shown(name)}' of a DataItem not found")
+        if total > limit:
+            raise _too_big(source, "the data it refers to", total, limit)
+    seen = set()
+    for item in root.iter():
+        if item.tag.rsplit("}", 1)[-1] == "DataItem" and item.get("Format") == "HDF":
+            name = (item.text or "").strip().split(":", 1)[0]
+            target = os.path.realpath(os.path.join(folder, name))
+            if target not in seen:
+                seen.add(target)
+                total += _check_hdf5(target, source, roots, limit - total, name)
+
+
+def _check_hdf5(path, source, roots, limit, shown):
+    """Walk an HDF5 file without reading data: external links, external and virtual
+    storage inside ``roots``, declared dataset sizes within ``limit``; returns the bytes
+    declared."""
+    import h5py
+
+    folder = os.path.dirname(os.path.abspath(path))
+    try:
+        f = h5py.File(path, "r")
+    except OSError:
+        return 0                              # not HDF5: the reader says what it is
+    total = 0
+    with f:
+        stack, visited = [f], set()
+        while stack:
+            group = stack.pop()
+            for key in list(group.keys()):
+                link = group.get(key, getlink=True)
+                if isinstance(link, h5py.ExternalLink):
+                    candidates = [link.filename] if os.path.isabs(link.filename) else \
+                        [os.path.join(folder, link.filename), link.filename]
+                    if not all(_inside(c, roots) for c in candidates):
+                        raise _outside(source, f"HDF5 external link in {shown} to",
+                                       link.filename)
+                    continue                  # its data is checked when read, if ever
+                if isinstance(link, h5py.SoftLink):
+                    continue
+                obj = group[key]
+                if isinstance(obj, h5py.Group):
+                    if obj.id.__hash__() not in visited:
+                        visited.add(obj.id.__hash__())
+                        stack.append(obj)
+                    continue
+                if not isinstance(obj, h5py.Dataset):
+                    continue
+                for entry in obj.external or ():
+                    name = os.fsdecode(entry[0])
+                    if not _inside(name if os.path.isabs(name) else os.path.join(folder, name),
+                                   roots) or not _inside(name, roots):
+                        raise _outside(source, f"HDF5 external storage in {shown}:", name)
+                if obj.is_virtual:
+                    for vs in obj.virtual_sources():
+                        name = vs.file_name
+                        if name != "." and not _inside(
+                                name if os.path.isabs(name) else os.path.join(folder, name), roots):
+                            raise _outside(source, f"HDF5 virtual dataset in {shown} from", name)
+                shape = obj.shape or ()
+                total += int(np.prod(shape, dtype=np.float64)) * obj.dtype.itemsize
+                if total > limit:
+                    raise _too_big(source, f"the data {shown} declares", total, limit)
+    return total
+
+
+def _vtu_declared(path):
+    """Bytes the compressed DataArrays of a VTU file decompress to, from their block
+    headers (0 when uncompressed: then bounded by the file size; a header that cannot be
+    parsed counts 0, and the decompression is bounded anyway, see :class:`_Budget`)."""
+    import base64
+
+    with open(path, "rb") as f:
+        raw = f.read()
+    head = raw[:4096]
+    if b"compressor=" not in head:
+        return 0
+    found = re.search(rb'header_type="(\w+)"', head)
+    itemsize = 8 if found and found.group(1) == b"UInt64" else 4
+    order = ">" if b'byte_order="BigEndian"' in head else "<"
+    dtype = np.dtype(f"{order}u{itemsize}")
+    appended = re.search(rb"<AppendedData[^>]*>", raw)
+    xml = raw[:appended.start()] if appended else raw
+    blob = b""
+    is_raw = False
+    if appended:
+        is_raw = b'encoding="raw"' in appended.group(0)
+        end = raw.find(b"</AppendedData>", appended.end())
+        blob = raw[appended.end():end if end > 0 else len(raw)].split(b"_", 1)[-1]
+
+    def size(header_bytes):
+        h = np.frombuffer(header_bytes[:3 * itemsize], dtype)
+        if len(h) < 3:
+            return 0
+        n, block, last = (int(v) for v in h)
+        return max(n - 1, 0) * block + (last or block) if n else 0
+
+    def from_base64(text):            # 3 header items = 3 x itemsize bytes = 4 x itemsize chars
+        return size(base64.b64decode(text[:4 * itemsize]))
+
+    total = 0
+    try:
+        for m in re.finditer(rb"<DataArray\b([^>]*?)(/>|>(.*?)</DataArray>)", xml, re.S):
+            attrs = m.group(1)
+            fmt = re.search(rb'format="(\w+)"', attrs)
+            fmt = fmt.group(1) if fmt else b"ascii"
+            if fmt == b"binary":
+                total += from_base64((m.group(3) or b"").strip())
+            elif fmt == b"appended" and appended:
+                offset = int(re.search(rb'offset="\s*(\d+)', attrs).group(1))
+                total += size(blob[offset:offset + 3 * itemsize]) if is_raw else \
+                    from_base64(blob[offset:].lstrip())
+    except (ValueError, AttributeError, TypeError):
+        return total
+    return total
+
+
+class _Budget:
+    """A decompressor (``zlib`` or ``lzma``) that refuses to produce more than ``left``
+    bytes in all (meshio's VTU reader calls ``module.decompress``)."""
+
+    def __init__(self, module, state, source):
+        self.module, self.state, self.source = module, state, source
+
+    def __getattr__(self, name):
+        return getattr(self.module, name)
+
+    def decompress(self, data):
+        import lzma
+
+        left = self.state["left"]
+        d = lzma.LZMADecompressor() if self.module is lzma else self.module.decompressobj()
+        out = d.decompress(data, left + 1)
+        if len(out) > left:
+            raise _too_big(self.source, "its decompressed data", self.state["limit"] + 1,
+                           self.state["limit"])
+        self.state["left"] -= len(out)
+        return out
+
+
+@contextlib.contextmanager
+def _bounded_decompression(fmt, source, limit):
+    if fmt != "vtu":
+        yield
+        return
+    import lzma
+    import zlib
+
+    vtu = importlib.import_module("meshio.vtu._vtu")
+    state = {"left": limit, "limit": limit}
+    saved = vtu.zlib, vtu.lzma
+    vtu.zlib, vtu.lzma = _Budget(zlib, state, source), _Budget(lzma, state, source)
+    try:
+        yield
+    finally:
+        vtu.zlib, vtu.lzma = saved
 
 
 def from_meshio(m, source="<meshio>", fmt=None):
@@ -103,6 +384,8 @@ def _file_format(path, source):
         raise MeshError(f"{source}: mesh file not found")
     if os.path.isdir(path):
         raise MeshError(f"{source}: is a directory, not a mesh file")
+    if not os.path.isfile(path):
+        raise MeshError(f"{source}: not a regular file (a pipe or a device?): give a mesh file")
     ext = os.path.splitext(os.fspath(path))[1].lower()
     if ext not in FORMATS:
         raise MeshError(f"{source}: unknown mesh format '{ext or '(no extension)'}' "
@@ -110,14 +393,25 @@ def _file_format(path, source):
     return FORMATS[ext]
 
 
-def _meshio_read(path, fmt, source):
+def _meshio_read(path, fmt, source, limit=None):
     """The ``meshio.Mesh`` in ``path``; every failure becomes a one-line MeshError."""
     # the format's own reader: meshio.read() turns reader errors into sys.exit(1)
     reader = importlib.import_module(f"meshio.{fmt}").read
     try:
-        return reader(os.fspath(path))
+        with _bounded_decompression(fmt, source, size_limit() if limit is None else limit):
+            return reader(os.fspath(path))
+    except MeshError:
+        raise
+    except MemoryError:
+        raise MeshError(f"{source}: not enough memory to read it (lower -xfc_mesh_max_mb "
+                        f"to refuse such files before reading)") from None
     except Exception as exc:  # meshio, h5py and XML parsers raise many kinds
         text = " ".join(str(exc).split())
+        if _truncated(path, fmt, exc, text):
+            raise MeshError(f"{source}: cannot read as {_FORMAT_NAMES[fmt]}: the file is "
+                            f"truncated or corrupt (its data end before, or do not match, the "
+                            f"sizes it declares)") from None
+        text = text if len(text) <= 160 else text[:157] + "..."
         detail = type(exc).__name__ + (f": {text}" if text else "")
         hint = ""
         if fmt == "xdmf" and isinstance(exc, KeyError):
@@ -125,6 +419,22 @@ def _meshio_read(path, fmt, source):
                     "cells: write one cell block, or use MED, Gmsh or VTU")
         raise MeshError(f"{source}: cannot read as {_FORMAT_NAMES[fmt]} "
                         f"({detail}){hint}") from exc
+
+
+def _truncated(path, fmt, exc, text):
+    """Whether a reader's failure means the file ends early or its sizes do not match."""
+    import struct
+
+    if isinstance(exc, (EOFError, struct.error)) or "cannot reshape" in text \
+            or "buffer is smaller" in text or "end of file" in text.lower():
+        return True
+    if fmt == "gmsh":
+        with contextlib.suppress(OSError):
+            with open(path, "rb") as f:
+                f.seek(max(os.path.getsize(path) - 256, 0))
+                tail = f.read().rstrip()
+            return not re.search(rb"\$End[A-Za-z]+$", tail)
+    return False
 
 
 # -- geometry and cells ------------------------------------------------------------
