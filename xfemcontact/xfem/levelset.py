@@ -51,10 +51,29 @@ VERTEX_ROOT = 1e-10       # reference-abscissa distance at which an edge root is
 
 
 def nodal_values(mesh, interface, node_field=None):
-    """LN at every local node (m^2 or whatever the formula's unit)."""
+    """LN at every local node, scaled by a power of two (:func:`normalised`)."""
     if interface.level_set is not None:
-        return interface.level_set(x=mesh.x[:, 0], y=mesh.x[:, 1])
-    return np.asarray(node_field, dtype=float)
+        phi = interface.level_set(x=mesh.x[:, 0], y=mesh.x[:, 1])
+    else:
+        phi = np.asarray(node_field, dtype=float)
+    return normalised(phi, mesh.comm.tompi4py() if mesh.comm.size > 1 else None)
+
+
+def normalised(phi, comm=None):
+    """``phi`` times the power of two that brings its largest magnitude (over all
+    processes of the mpi4py ``comm``) into [0.5, 1).  Exact: the zero line and every
+    decision of the readjustment (all relative) are unchanged, but a level set of
+    magnitude 1e-300 or 1e300 no longer underflows or overflows in the edge roots."""
+    phi = np.asarray(phi, dtype=float)
+    finite = np.abs(phi[np.isfinite(phi)])
+    top = float(finite.max()) if len(finite) else 0.0
+    if comm is not None:
+        from mpi4py import MPI
+
+        top = comm.allreduce(top, op=MPI.MAX)
+    if not top > 0 or not np.isfinite(top):
+        return phi
+    return np.ldexp(phi, -np.frexp(top)[1])
 
 
 def edge_roots(phi_a, phi_b, phi_m):
