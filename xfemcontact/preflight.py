@@ -8,7 +8,9 @@ no MPI_Abort).  In order:
 
 1. the mesh can be built (read, generated, refined): :class:`MeshError` of the
    mesh reader, prefixed with the case file and ``mesh.file``;
-2. the load groups exist in the mesh (:meth:`Case.check_groups`);
+2. the load groups exist in the mesh (:meth:`Case.check_groups`) and have the
+   dimension of their load (:func:`group_dimensions`: tractions on edge groups,
+   imposed displacements on edge or node groups);
 3. the imposed displacements can be evaluated at the nodes of their groups
    (a formula giving NaN or inf names its key and the first bad node);
 4. the level set (formula, or nodal field of the mesh file) has a finite value at
@@ -19,7 +21,14 @@ no MPI_Abort).  In order:
    ending inside the domain looks like with a normal level set alone; error);
 5. :func:`rigid_body_modes`: the imposed displacements hold every body (the
    whole mesh, or each side of a ``law = "free"`` interface) against
-   translations and rotation.
+   translations and rotation;
+6. :func:`interface_resolution`: how far the interface the mesh represents (the
+   zero of the interpolated nodal LN) is from the zero of the level-set formula;
+   beyond ``interface.max_offset`` (a fraction of the cell size) the case is
+   refused, beyond :data:`OFFSET_WARNING` it is a warning.
+
+After the set-up, :func:`readjustment_warnings` says when the readjustment rules
+had to lift many edges (an interface the mesh follows poorly).
 
 :func:`levelset_meets_domain` also works on the nodal values of the distributed
 mesh (``comm`` for the global reductions).
@@ -31,9 +40,17 @@ import numpy as np
 from xfemcontact.contact import laws
 from xfemcontact.errors import CaseError, FormulaError, GeometryError, MeshError, XfcError
 from xfemcontact.mesh.build import build_raw_mesh
-from xfemcontact.xfem.levelset import ROUNDOFF     # rule 1 of the readjustment
+from xfemcontact.xfem.levelset import ROUNDOFF, normalised     # rule 1 of the readjustment
 #: positions closer than this fraction of the mesh size are the same position
 SAME_POSITION = 1e-9
+#: sizes of a mesh (largest side of its bounding box, m) that are accepted
+MESH_EXTENT = (1e-9, 1e9)
+#: represented interface farther than this fraction of the cell size from the zero of
+#: the level set: a warning (interface.max_offset refuses)
+OFFSET_WARNING = 0.05
+#: lifted edges (readjustment rule 3) beyond which the set-up warns, in number and as a
+#: fraction of the cut cells
+LIFTED_WARNING = (4, 0.05)
 
 _ERRORS = {cls.__name__: cls for cls in (CaseError, FormulaError, GeometryError, MeshError,
                                           XfcError)}
@@ -45,6 +62,7 @@ class Preflight:
 
     warnings: list = field(default_factory=list)
     interface: bool = True       # False: the level set does not meet the domain
+    resolution: dict | None = None   # see interface_resolution (formula level sets)
 
 
 # --- the whole check, collective ----------------------------------------------------------
@@ -99,6 +117,13 @@ def _raise_shared(outcome, comm):
 def _preflight(case, raw):
     result = Preflight()
     case.check_groups(raw.group_names())
+    group_dimensions(case, raw)
+    size = _extent(raw.points, raw.cells)
+    if not MESH_EXTENT[0] <= size <= MESH_EXTENT[1]:
+        key = "mesh.file" if case.mesh.file is not None else "mesh.rectangle"
+        raise CaseError(f"{case.source}: {key}: the mesh is {size:.3g} m across; xfemcontact "
+                        f"works in SI units on meshes from {MESH_EXTENT[0]:g} to "
+                        f"{MESH_EXTENT[1]:g} m across (check the unit of the coordinates)")
     used = np.flatnonzero(np.bincount(raw.cells.ravel(), minlength=len(raw.points)))  # sorted
     x = raw.points
     interior = _interior_edges(raw.cells, raw.n_vertices_per_cell)
@@ -121,9 +146,13 @@ def _preflight(case, raw):
                 raise MeshError(f"{case.source}: {key}: '{itf.level_set_field}' is not finite "
                                 f"at node {n} ({x[n, 0]:.6g}, {x[n, 1]:.6g}) of {raw.source}")
         phi = np.zeros(len(x))
-        phi[used] = values
+        phi[used] = normalised(values)          # a power of two: exact, no over/underflow
         phi = _roundoff(raw.cells, phi)
-        warning = levelset_meets_domain(phi[used], x[used], source=case.source, key=key)
+        island = closed_curve_in_cell(raw, phi, source=case.source, key=key)
+        if island:
+            raise GeometryError(island)
+        given = np.where(phi[used] == 0, 0.0, values)        # the values as given, in messages
+        warning = levelset_meets_domain(given, x[used], source=case.source, key=key)
         if warning:
             result.warnings.append(warning)
             result.interface = False
@@ -133,11 +162,53 @@ def _preflight(case, raw):
                                                    source=case.source, key=key, interior=interior)
             if problem:
                 raise GeometryError(problem)
+        if itf.level_set is not None:
+            result.resolution = interface_resolution(case, raw, phi)
+            message = _resolution_message(case, result.resolution)
+            if message is not None and result.resolution["refused"]:
+                raise GeometryError(message)
+            if message is not None and phi is None:
+                # it meets the domain, but between the nodes: said instead of "does not meet"
+                result.warnings = [message + ": solving without interface"]
+            elif message is not None:
+                result.warnings.append(message)
     law = laws.get(itf.law) if itf is not None and phi is not None else None
     problem = rigid_body_modes(case, raw, phi, law, interior=interior)
     if problem:
         raise CaseError(problem)
     return result
+
+
+# --- groups ------------------------------------------------------------------------------
+
+def group_dimensions(case, raw):
+    """CaseError when a load names a group of the wrong dimension: tractions act on edge
+    groups, imposed displacements on edge or node groups (not on cell groups)."""
+    mesh = raw.source if case.mesh.file is not None else "rectangle"
+
+    def kinds(name):
+        return [kind for kind, groups in (("edge", raw.edge_groups), ("node", raw.node_groups),
+                                          ("cell", raw.cell_groups)) if name in groups]
+
+    def listed(kind):
+        names = sorted({"edge": raw.edge_groups, "node": raw.node_groups,
+                        "cell": raw.cell_groups}[kind])
+        return ", ".join(names[:20]) + (", ..." if len(names) > 20 else "") or "none"
+
+    for load in case.traction:
+        for group in load.groups:
+            found = kinds(group)
+            if "edge" not in found:
+                raise CaseError(f"{case.source}: {load.key}.group: '{group}' is a {found[0]} group "
+                                f"of {mesh}; tractions (FORCE_CONTOUR, PRES_REP) act on edge groups "
+                                f"(edge groups: {listed('edge')})")
+    for load in case.dirichlet:
+        for group in load.groups:
+            found = kinds(group)
+            if found == ["cell"]:
+                raise CaseError(f"{case.source}: {load.key}.group: '{group}' is a cell group of "
+                                f"{mesh}; imposed displacements act on edge or node groups "
+                                f"(edge groups: {listed('edge')}; node groups: {listed('node')})")
 
 
 def _field_values(case, raw, name):
@@ -199,6 +270,35 @@ def levelset_meets_domain(phi, x=None, comm=None, source="<case>", key="interfac
     return (prefix + f"the interface only touches the domain (LN {sign} 0 at every node, "
             f"LN = 0{near}; no side with LN {'<' if high > 0 else '>'} 0): "
             f"solving without interface")
+
+
+def closed_curve_in_cell(raw, phi, source="<case>", key="interface.level_set"):
+    """An error message when the interpolated LN changes sign inside a cell whose nodes
+    all have one sign (a closed interface smaller than the cell, which the cut cannot
+    follow), else None.  ``phi``: nodal LN (normalised, round-off set to 0)."""
+    from xfemcontact.fem.elements import element
+
+    cells = raw.cells
+    pc = phi[cells]
+    lo, hi = pc.min(axis=1), pc.max(axis=1)
+    one_sign = (lo >= 0) | (hi <= 0)
+    near = one_sign & (np.abs(pc).min(axis=1) <= 2.0 * (hi - lo))
+    cand = np.flatnonzero(near)
+    if len(cand) == 0:
+        return None
+    el = element(raw.cell_type)
+    N = el.shape(_sample_points(el))
+    vals = pc[cand] @ N.T                                    # (k, m)
+    side = np.where(hi[cand] > 0, 1.0, -1.0)
+    wrong = np.any(vals * side[:, None] < 0, axis=1)
+    if not wrong.any():
+        return None
+    c = int(cand[np.argmax(wrong)])
+    ctr = raw.points[cells[c]].mean(axis=0)
+    sign = ">" if side[np.argmax(wrong)] > 0 else "<"
+    return (f"{source}: {key}: the interface makes a closed curve inside cell {c} near "
+            f"({ctr[0]:.6g}, {ctr[1]:.6g}), smaller than the cell (LN {sign} 0 at its nodes, "
+            f"the other sign inside): refine the mesh there")
 
 
 def levelset_without_sign_change(cells, nv, phi, x, source="<case>", key="interface.level_set",
@@ -438,3 +538,141 @@ def _extent(x, cells):
     used[cells.ravel()] = True
     xu = x[used]
     return float(max(np.ptp(xu[:, 0]), np.ptp(xu[:, 1])))
+
+
+# --- how well the mesh represents the interface ---------------------------------------------
+
+def _sample_points(el, k=6):
+    """Reference points of a k-interval grid of the cell (corners and edges included)."""
+    t = np.linspace(0.0, 1.0, k + 1)
+    if el.nv == 3:
+        return np.array([(a, b) for i, a in enumerate(t) for b in t[:k + 1 - i]])
+    u = 2.0 * t - 1.0
+    return np.array([(a, b) for a in u for b in u])
+
+
+def interface_resolution(case, raw, phi):
+    """How far the interface the mesh represents is from the zero of the level-set formula.
+
+    On the cells near the interface (nodal LN of both signs, or smaller than twice its
+    spread in the cell), LN is sampled on a grid of each cell: the formula ``f`` and the
+    interpolant ``p`` of its nodal values.  Where their signs differ, a point lies
+    between the two zero lines, which are then at least ``|f| / |grad f| + |p| / |grad p|``
+    apart there (each distance capped at the cell size h).  Returns a dict: the largest
+    such offset ``offset_h`` (a fraction of the cell's h) and ``offset_m`` (m), where
+    (``at``, ``cell``), whether the nodal values of that cell have both signs
+    (``seen``), the cells sampled, and ``refused`` (``offset_h`` above
+    ``interface.max_offset``).  ``phi``: the nodal LN (None when it does not take both
+    signs on the nodes).
+    """
+    from xfemcontact.fem.elements import element, physical_gradients
+
+    itf = case.interface
+    el = element(raw.cell_type)
+    cells, x = raw.cells, raw.points
+    used = np.unique(cells)
+    values = np.zeros(len(x))
+    values[used] = itf.level_set(x=x[used, 0], y=x[used, 1])
+    scale = float(np.ldexp(1.0, -np.frexp(np.abs(values).max())[1])) if values.any() else 1.0
+    values *= scale                    # exact (a power of two): no overflow, no underflow
+
+    def level_set(xs, ys):
+        return itf.level_set(x=xs, y=ys) * scale
+
+    pc = values[cells]
+    lo, hi = pc.min(axis=1), pc.max(axis=1)
+    near = ((lo < 0) & (hi > 0)) | (np.abs(pc).min(axis=1) <= 2.0 * (hi - lo))
+    cand = np.flatnonzero(near)
+    out = {"offset_h": 0.0, "offset_m": 0.0, "at": None, "cell": None, "seen": True,
+           "sampled_cells": int(len(cand)), "max_offset": itf.max_offset, "refused": False}
+    if len(cand) == 0:
+        return out
+    xi = _sample_points(el)
+    N, dN = el.shape(xi), el.dshape(xi)                          # (m, nn), (m, nn, 2)
+    best = (0.0, None)
+    for start in range(0, len(cand), 4096):
+        c = cand[start:start + 4096]
+        xc = x[cells[c]]                                         # (b, nn, 2)
+        pts = np.einsum("ma,bai->bmi", N, xc)                    # (b, m, 2)
+        p = pc[c] @ N.T                                          # (b, m)
+        try:
+            f = level_set(pts[..., 0], pts[..., 1])
+        except XfcError:               # not finite between the nodes: cannot tell here
+            return None
+        wrong = (np.sign(f) * np.sign(p) < 0)
+        if not wrong.any():
+            continue
+        b, m = np.nonzero(wrong)
+        h = np.linalg.norm(xc[:, :el.nv, None] - xc[:, None, :el.nv], axis=-1).max(axis=(1, 2))
+        J = el.jacobians(xc[b], xi)[np.arange(len(b)), m]         # (k, 2, 2)
+        grads, _ = physical_gradients(dN[m], J)                  # (k, nn, 2)
+        gp = np.einsum("ka,kai->ki", pc[c][b], grads)
+        here = pts[b, m]
+        step = 1e-7 * h[b]
+        try:
+            gf = np.stack([(level_set(here[:, 0] + step, here[:, 1])
+                            - level_set(here[:, 0] - step, here[:, 1])) / (2 * step),
+                           (level_set(here[:, 0], here[:, 1] + step)
+                            - level_set(here[:, 0], here[:, 1] - step)) / (2 * step)], -1)
+        except XfcError:
+            return None
+        with np.errstate(all="ignore"):
+            df = np.abs(f[b, m]) / np.linalg.norm(gf, axis=1)
+            dp = np.abs(p[b, m]) / np.linalg.norm(gp, axis=1)
+        hb = h[b]
+        df = np.where(np.isfinite(df), np.minimum(df, hb), hb)
+        dp = np.where(np.isfinite(dp), np.minimum(dp, hb), hb)
+        offset = (df + dp) / hb
+        i = int(np.argmax(offset))
+        if offset[i] > best[0]:
+            cell = int(c[b[i]])
+            best = (float(offset[i]), (cell, float(offset[i] * hb[i]), here[i]))
+    if best[1] is not None:
+        cell, metres, at = best[1]
+        out.update(offset_h=best[0], offset_m=metres, at=[float(at[0]), float(at[1])], cell=cell,
+                   seen=bool(lo[cell] < 0 < hi[cell] or phi is not None and
+                             (phi[cells[cell]] == 0).any()))
+        out["refused"] = best[0] > itf.max_offset
+    return out
+
+
+def _resolution_message(case, r):
+    """The warning or refusal of :func:`interface_resolution`'s outcome ``r``, or None."""
+    if r is None or r["offset_h"] <= OFFSET_WARNING:
+        return None
+    at = f"({r['at'][0]:.4g}, {r['at'][1]:.4g})"
+    prefix = f"{case.source}: interface.level_set: "
+    if not r["seen"]:
+        what = (f"the level set changes sign inside cell {r['cell']} near {at} but not at its "
+                f"nodes: the mesh does not see the interface there (a closed curve or a fold "
+                f"smaller than the cell?)")
+    else:
+        what = (f"the interface the mesh represents is up to {r['offset_h']:.2g} h "
+                f"({r['offset_m']:.3g} m) from the zero of the level set, near {at}")
+    if r["refused"]:
+        return (prefix + what + f"; the level set varies faster than the cells can follow: refine "
+                f"the mesh there, or accept it with interface.max_offset = "
+                f"{max(r['offset_h'], 0.01) * 1.01:.2g} (now {r['max_offset']:g})")
+    return prefix + what + "; refine the mesh there for a closer interface"
+
+
+def readjustment_warnings(case, model):
+    """Warnings (one line each, every process the same) when the readjustment rules
+    lifted many edges: the level set crosses edges twice, so the interface was moved to
+    cross them once (collective)."""
+    geo = model.geo
+    if geo is None:
+        return []
+    mpi = model.comm.tompi4py()
+    r = geo.readjustment
+    lifted = mpi.allreduce(int(r.lifted_edges))
+    pushed = mpi.allreduce(int(r.pushed_off))
+    cut = mpi.allreduce(len(geo.cut_cells))
+    many, fraction = LIFTED_WARNING
+    if lifted <= many or lifted <= fraction * max(cut, 1):
+        return []
+    itf = case.interface
+    key = "interface.level_set" if itf.level_set is not None else "interface.level_set_field"
+    return [f"{case.source}: {key}: the level set crosses {lifted} cell edge(s) twice (of "
+            f"{cut} cut cells; {pushed} pushed off): the interface was moved there to cross "
+            f"each edge once; the mesh is too coarse for this interface (refine it)"]
