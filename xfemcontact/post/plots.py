@@ -15,6 +15,8 @@ Each ``*_figure`` function returns a :class:`matplotlib.figure.Figure` built fro
 plain arrays (the columns of interface.csv, the post mesh, results.json's
 iteration record), so a plot can be redrawn from the files.
 """
+import sys
+
 import numpy as np
 
 #: polygon node order of each cell type (vertices and mid-edge nodes around the boundary)
@@ -288,23 +290,33 @@ def write(folder, title, post=None, table=None, history=None, iterations=None,
     """
     written = []
     umax, size = 0.0, 1.0
+    title = title.replace("$", r"\$")        # text, not mathtext
     if post is not None and len(post.points):
-        umax = float(np.hypot(post.point_data["DX"], post.point_data["DY"]).max())
+        umax = float(np.nan_to_num(np.hypot(post.point_data["DX"], post.point_data["DY"])).max())
         size = float(np.max(post.points.max(axis=0) - post.points.min(axis=0))) or 1.0
 
-    def save(fig, name):
+    def save(draw, name):
+        """A plot that cannot be drawn (non-finite results of a failed run) is left out:
+        the result files matter more."""
         from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-        FigureCanvasAgg(fig)             # the figure is drawn once, by savefig
-        fig.savefig(folder.file(name))
+        try:
+            fig = draw()
+            FigureCanvasAgg(fig)             # the figure is drawn once, by savefig
+            fig.savefig(folder.file(name))
+        except (ValueError, IndexError, TypeError, OverflowError, FloatingPointError,
+                RuntimeError) as exc:
+            print(f"warning: {name} not drawn ({type(exc).__name__})", file=sys.stderr, flush=True)
+            return
         written.append(name)
 
     if table is not None and len(table.columns["s"]):
-        save(multipliers_figure(table.columns, title, table.curves), "plot_multipliers.png")
-        save(status_figure(table.columns, title, umax, friction), "plot_status.png")
+        save(lambda: multipliers_figure(table.columns, title, table.curves), "plot_multipliers.png")
+        save(lambda: status_figure(table.columns, title, umax, friction), "plot_status.png")
     if post is not None:
-        save(deformed_figure(post.points, post.blocks, post.point_data, post.cell_data, title,
-                             stress_scale=young * umax / size), "plot_deformed.png")
+        save(lambda: deformed_figure(post.points, post.blocks, post.point_data, post.cell_data, title,
+                                     stress_scale=young * umax / size), "plot_deformed.png")
     if history is not None and iterations and len(iterations.get("newton_per_solve", [])) > 1:
-        save(convergence_figure(history, iterations, title, criterion, resi_frot), "plot_convergence.png")
+        save(lambda: convergence_figure(history, iterations, title, criterion, resi_frot),
+             "plot_convergence.png")
     return written

@@ -117,7 +117,7 @@ def evaluate(tests, samples, reference, comm):
         if t.criterion == "ABSOLU":
             allowed = t.tolerance
         else:
-            allowed = t.tolerance * (ref_scale if t.type == "MAX_ERROR" else abs(ref))
+            allowed = t.tolerance * ((ref_scale or 0.0) if t.type == "MAX_ERROR" else abs(ref))
         ok = bool(count > 0 and np.isfinite(value) and abs(value - ref) <= allowed)
         out.append(Outcome(t.name, t.field, t.type, value, ref, t.tolerance, t.criterion, ok, count, at))
     return out
