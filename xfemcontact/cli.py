@@ -6,28 +6,44 @@ The case file is the first argument ending in ``.toml``.  Also runs as
 ``python -m xfemcontact`` and under ``mpirun -n P``.
 
 Errors are one line on stderr, ``error: ...`` (see :mod:`xfemcontact.errors`
-and docs/errors.md): a collective error is printed by rank 0 and every process
+and README.md): a collective error is printed by rank 0 and every process
 returns its exit code; any other error is printed by the process that raised it
-and aborts the run under MPI.  SIGINT and SIGTERM stop the run cleanly
+and aborts the run under MPI.  SIGINT, SIGTERM and SIGHUP stop the run cleanly
 (:func:`xfemcontact.output.folder.handle_signals`): one line
 ``interrupted (SIGTERM): previous results in X kept`` / ``...: no results
-written``, exit code 130 / 143.
+written``, exit code 130 / 143 / 129.  Under MPI a signal that reaches some
+processes only (``kill`` of one rank) ends the whole job: the processes that
+received it wait :data:`SIGNAL_AGREEMENT` seconds for the others (mpirun forwards
+its signals to all), then abort the run (``MPI_Abort``).  A standard output
+closed early (``xfemcontact run ... | head -1``) does not stop the run.
 """
 import os
 import sys
+import time
 
 import xfemcontact
+
+#: seconds the processes that received a signal wait for the others before aborting
+SIGNAL_AGREEMENT = 2.0
 
 USAGE = """usage: xfemcontact run CASE.toml [-o OUTDIR] [--overwrite] [PETSc options...]
 
   CASE.toml        the case file (TOML, see README.md)
   -o, --output DIR result folder (default: results/<case name>)
-  --overwrite      replace an existing result folder
+  --overwrite      replace an existing result folder (only one xfemcontact wrote)
   PETSc options    anything else, e.g. -snes_monitor -ksp_view -log_view
                    -pc_factor_mat_solver_type mumps -mat_mumps_icntl_24 1
+                   (-help lists them all)
 exit codes: 0 solved and all tests OK, 1 a test NOOK, 2 bad input, 3 no convergence,
-            130/143 interrupted (SIGINT/SIGTERM; previous results kept)
+            130/143/129 interrupted (SIGINT/SIGTERM/SIGHUP; previous results kept)
 """
+
+
+def usage():
+    """The usage text, with our own options (:mod:`xfemcontact.options`)."""
+    from xfemcontact import options
+
+    return USAGE + "\n".join(options.help_lines()) + "\n"
 
 
 def split_args(argv):
@@ -55,41 +71,54 @@ def split_args(argv):
 def main(argv=None):
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help"):
-        print(USAGE, end="")
+        print(usage(), end="")
         return 0
     if argv[0] != "run":
-        print(USAGE, end="", file=sys.stderr)
+        print(usage(), end="", file=sys.stderr)
         return 2
     case, outdir, overwrite, want_help, petsc = split_args(argv[1:])
     if want_help or case is None:
-        print(USAGE, end="")
+        print(usage(), end="")
         return 0 if want_help else 2
     xfemcontact.PETSC_ARGV[:] = petsc
     from xfemcontact.errors import Interrupted, XfcError
     from xfemcontact.output.folder import handle_signals, restore_signals
 
-    previous = handle_signals()       # SIGINT/SIGTERM -> Interrupted: a clean stop
-    comm = None
+    _quiet_numerics()
+    previous = handle_signals()       # SIGINT/SIGTERM/SIGHUP -> Interrupted: a clean stop
+    comm = agreement = None
     try:
         from xfemcontact._petsc import PETSc
 
+        handle_signals(reset=False)   # again: PETSc installs its own when it starts
         comm = PETSc.COMM_WORLD
+        if comm.size > 1:
+            agreement = comm.tompi4py().Dup()
         from xfemcontact.run import run
 
         return run(case, outdir, overwrite)
     except Interrupted as exc:
-        # every process is signalled by mpirun; rank 0 knows what became of the results
+        # mpirun forwards a signal to every process, and rank 0 knows what became of the
+        # results; a signal to some processes only must end the whole job
         if comm is None or comm.rank == 0:
-            print(str(exc), file=sys.stderr, flush=True)
+            _say(str(exc))
+        alone = agreement is not None and not _all_arrive(agreement, SIGNAL_AGREEMENT)
+        if alone and comm.rank != 0:
+            _say(f"interrupted ({exc.name}) on process {comm.rank} of {comm.size}: "
+                 f"stopping every process")
+        if alone:
+            return _finish(comm, exc.exit_code)
         return exc.exit_code
     except XfcError as err:
         if err.collective:
             # raised identically on every process: report once, everybody leaves
             if comm is None or comm.rank == 0:
-                print(f"error: {err}", file=sys.stderr, flush=True)
+                _say(f"error: {err}")
             return err.exit_code
-        print(f"error: {err}", file=sys.stderr, flush=True)
+        _say(f"error: {err}")
         return _finish(comm, err.exit_code)
+    except BrokenPipeError:                  # our standard output was closed: nothing to say
+        return _finish(comm, 1)
     except BaseException:
         if comm is None or comm.size == 1:
             raise
@@ -117,9 +146,43 @@ def _leave(code):
     mpi = sys.modules.get("mpi4py.MPI")
     if mpi is not None and mpi.Is_initialized() and not mpi.Is_finalized():
         mpi.Finalize()
-    sys.stdout.flush()
-    sys.stderr.flush()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):     # closed by the reader (| head): nothing to do
+            pass
     os._exit(code)
+
+
+def _say(line):
+    """One line on stderr, even when it is closed."""
+    try:
+        print(line, file=sys.stderr, flush=True)
+    except (OSError, ValueError):
+        pass
+
+
+def _quiet_numerics():
+    """No NumPy warnings on stderr: every value that matters is checked for being finite
+    and reported in one line (formulas, residuals, results)."""
+    import warnings
+
+    import numpy as np
+
+    np.seterr(all="ignore")
+    warnings.filterwarnings("ignore", category=RuntimeWarning)
+
+
+def _all_arrive(comm, timeout):
+    """Whether every process of ``comm`` reaches this point within ``timeout`` seconds
+    (a non-blocking barrier on a communicator of its own)."""
+    request = comm.Ibarrier()
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if request.Test():
+            return True
+        time.sleep(0.01)
+    return False
 
 
 def _finish(comm, code):

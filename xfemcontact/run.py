@@ -3,33 +3,47 @@
 Exit codes: 0 solved and every test OK; 1 some test NOOK; 2 bad input;
 3 no convergence; 130/143 interrupted by SIGINT/SIGTERM.
 
-Order: read the case, check the output folder, build the input mesh and check
-the case against it (:mod:`xfemcontact.preflight`, before anything heavy), set up
-and solve, evaluate the tests (only when converged), write the files into a
-temporary folder, results.json last, and rename it into place.
+Order: read the case, check the output folder (and that it can be written), the
+PETSc and ``-xfc_*`` options, build the input mesh and check the case against it
+(:mod:`xfemcontact.preflight`, before anything heavy), set up and solve, evaluate
+the tests (only when converged), write the files into a temporary folder,
+results.json last, and put it into place.
 """
 import dataclasses
+import os
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-from xfemcontact import preflight
+from xfemcontact import options, preflight
 from xfemcontact import timing
 from xfemcontact._petsc import PETSc
 from xfemcontact.case import load_case
-from xfemcontact.errors import ConvergenceError, Interrupted
+from xfemcontact.errors import ConvergenceError, GeometryError, Interrupted, XfcError
 from xfemcontact.output import results
 from xfemcontact.output.folder import OutputFolder
 from xfemcontact.post import testtable
 from xfemcontact.solver.diagnose import diagnose
+from xfemcontact.solver.newton import check_options
 
 
 def say(comm, *lines):
+    """Lines on stdout (rank 0).  A closed standard output (``| head -1``) is no reason
+    to stop: what follows goes nowhere."""
     if comm.rank == 0:
         for line in lines:
-            print(line, flush=True)
+            try:
+                print(line, flush=True)
+            except BrokenPipeError:
+                _stdout_to_null()
+
+
+def _stdout_to_null():
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)
 
 
 def node_samples(model, u):
@@ -78,10 +92,17 @@ def run(case_path, outdir=None, overwrite=False):
     timing.reset()
     timing.start_logging()
     folder = None
+    if PETSc.Options().hasName("help"):
+        say(comm, *options.help_lines())
     try:
         case = load_case(case_path)
         outdir = outdir or f"results/{case.name}"
         folder = OutputFolder(outdir, overwrite, mpi)
+        if folder.cleaned:
+            warn(comm, f"{outdir}: removed what earlier interrupted runs left: "
+                       f"{', '.join(folder.cleaned)}")
+        options.check_all()
+        check_options()
     except Interrupted as exc:
         exc.outcome = _untouched(outdir)
         raise
@@ -95,8 +116,12 @@ def run(case_path, outdir=None, overwrite=False):
         warn(comm, *pre.warnings)
         if not pre.interface:
             case = dataclasses.replace(case, interface=None)
-        model = Model.from_case(case, raw)
+        try:
+            model = Model.from_case(case, raw)
+        except GeometryError as exc:
+            raise _named(exc, case) from None
         del raw
+        warn(comm, *preflight.readjustment_warnings(case, model))
         say(comm, f"{case.title}: {model.layout.global_size} dofs on {comm.size} process(es)")
         reason = model.solve()
         model.release_factors()
@@ -108,17 +133,24 @@ def run(case_path, outdir=None, overwrite=False):
         with timing.phase("post"):
             if converged:      # tests on a run that did not converge would mean nothing
                 outcomes = testtable.evaluate(case.tests, test_samples(model, case.tests), case.reference, comm)
-        with timing.phase("output"):
-            results.write_outputs(folder, model, converged, reason, outcomes, warnings=pre.warnings)
-        timing.TIMINGS["total"] = time.perf_counter() - t0
-        summary = results.summary(model, converged, reason, outcomes)
-        summary["warnings"] = pre.warnings + list(summary.get("warnings") or [])
-        if diagnostics is not None:
-            summary["diagnostics"] = diagnostics
-            summary["tests"] = []
-            summary["tests_skipped"] = f"not converged: {len(case.tests)} test(s) not evaluated"
-        folder.write_json("results.json", summary)      # last: the folder is complete
-        folder.commit()
+        try:
+            with timing.phase("output"):
+                results.write_outputs(folder, model, converged, reason, outcomes,
+                                      warnings=pre.warnings)
+            timing.TIMINGS["total"] = time.perf_counter() - t0
+            summary = results.summary(model, converged, reason, outcomes)
+            summary["warnings"] = pre.warnings + list(summary.get("warnings") or [])
+            if pre.resolution is not None:
+                summary["interface_resolution"] = pre.resolution
+            if diagnostics is not None:
+                summary["diagnostics"] = diagnostics
+                summary["tests"] = []
+                summary["tests_skipped"] = f"not converged: {len(case.tests)} test(s) not evaluated"
+            folder.write_json("results.json", summary)      # last: the folder is complete
+            folder.commit()
+        except OSError as exc:           # full disk, folder removed under us ...
+            raise XfcError(f"{outdir}: cannot write the results: {_os_reason(exc)}; the "
+                           f"previous results, if any, are kept") from None
     except Interrupted as exc:
         folder.abort()
         exc.outcome = folder.outcome()
@@ -146,6 +178,29 @@ def warn(comm, *lines):
     if comm.rank == 0:
         for line in lines:
             print(f"warning: {line}", file=sys.stderr, flush=True)
+
+
+def _os_reason(exc):
+    """Why a file could not be written, in a few words (HDF5 hides errno in its text)."""
+    import re
+
+    code = exc.errno
+    if not code:
+        found = re.search(r"errno = (\d+)", str(exc))
+        code = int(found.group(1)) if found else None
+    reason = os.strerror(code) if code else " ".join(str(exc).split())[:120]
+    name = exc.filename or (re.search(r"filename = '([^']*)'", str(exc)) or [None, None])[1]
+    return f"{reason} ({Path(name).name})" if name else reason
+
+
+def _named(exc, case):
+    """A GeometryError of the cut ("level set: ...") naming the case file and its key."""
+    itf = case.interface
+    key = "interface.level_set" if itf is None or itf.level_set is not None else \
+        "interface.level_set_field"
+    text = str(exc)
+    text = text[len("level set: "):] if text.startswith("level set: ") else text
+    return type(exc)(f"{case.source}: {key}: {text}", collective=exc.collective)
 
 
 def _untouched(outdir):
