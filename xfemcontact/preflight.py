@@ -43,6 +43,9 @@ from xfemcontact.mesh.build import build_raw_mesh
 from xfemcontact.xfem.levelset import ROUNDOFF, normalised     # rule 1 of the readjustment
 #: positions closer than this fraction of the mesh size are the same position
 SAME_POSITION = 1e-9
+#: the other sign inside a cell counts beyond this fraction of the cell's largest |LN|
+#: (round-off of an interface along the cell's edge is not a closed curve)
+ISLAND_ROUNDOFF = 1e-9
 #: sizes of a mesh (largest side of its bounding box, m) that are accepted
 MESH_EXTENT = (1e-9, 1e9)
 #: represented interface farther than this fraction of the cell size from the zero of
@@ -290,7 +293,8 @@ def closed_curve_in_cell(raw, phi, source="<case>", key="interface.level_set"):
     N = el.shape(_sample_points(el))
     vals = pc[cand] @ N.T                                    # (k, m)
     side = np.where(hi[cand] > 0, 1.0, -1.0)
-    wrong = np.any(vals * side[:, None] < 0, axis=1)
+    scale = np.abs(pc[cand]).max(axis=1)
+    wrong = np.any(vals * side[:, None] < -ISLAND_ROUNDOFF * scale[:, None], axis=1)
     if not wrong.any():
         return None
     c = int(cand[np.argmax(wrong)])
