@@ -139,9 +139,10 @@ def _inside(target, roots):
     return any(os.path.commonpath([real, r]) == r for r in roots)
 
 
-def _shown(text, limit=60):
+def _shown(text, limit=80):
+    """A name from a file, printable, its end kept when long (the file name matters)."""
     text = "".join(c if c.isprintable() else "?" for c in str(text))
-    return text if len(text) <= limit else text[:limit - 3] + "..."
+    return text if len(text) <= limit else "..." + text[-(limit - 3):]
 
 
 def _outside(source, what, ref):

@@ -298,6 +298,8 @@ class OutputFolder:
     def _problem(self, overwrite):
         """What is wrong with the location (one line), or None; checks it can be written."""
         shown = _short(str(self.path), 200)
+        if self.path.parent.is_dir():    # before anything: a replacement cut short is undone
+            self.cleaned = clean_stale(self.path)
         try:
             name = self.path.resolve().name if self.path.name in ("", ".", "..") else self.path.name
         except OSError:
@@ -334,7 +336,6 @@ class OutputFolder:
             if not ok:
                 return (f"{shown}: {why}: --overwrite replaces only result folders "
                         f"xfemcontact wrote (move what you keep there, or choose another -o)")
-        self.cleaned = clean_stale(self.path) if self.path.parent.is_dir() else []
         return self._probe()
 
     def _existing_parent(self):
@@ -367,9 +368,11 @@ class OutputFolder:
                 return (f"{_short(str(self.path), 200)}: no room for results "
                         f"({stats.f_bavail * stats.f_frsize / 1e6:.2g} MB free)")
         except OSError as exc:
-            where = exc.filename if exc.filename else self.path
+            where = exc.filename and Path(exc.filename)
+            at = f" ({_short(str(where), 120)})" if where and where != self.path and \
+                where.name not in (self.probe.name, MARK) else ""
             return (f"{_short(str(self.path), 200)}: cannot create the output folder: "
-                    f"{exc.strerror or exc} ({_short(str(where), 120)})")
+                    f"{exc.strerror or exc}{at}")
         finally:
             with contextlib.suppress(OSError):
                 if self.probe in made:
