@@ -38,8 +38,10 @@ import errno
 import fcntl
 import json
 import os
+import re
 import shutil
 import signal
+import time
 from pathlib import Path
 
 from xfemcontact.errors import CaseError, Interrupted
@@ -126,11 +128,11 @@ def ours(path):
             listed = None
     elif "results.json" in entries:           # written before the mark existed
         try:
-            with open(path / "results.json", encoding="utf-8") as f:
-                head = json.loads(f.read(1 << 24))
-            if isinstance(head, dict) and "xfemcontact" in head:
+            with open(path / "results.json", "rb") as f:
+                head = f.read(200)
+            if re.match(rb'\s*\{\s*"xfemcontact"\s*:', head):    # its first key
                 listed = set(LEGACY_FILES)
-        except (OSError, ValueError):
+        except OSError:
             listed = None
     if listed is None:
         shown = ", ".join(_short(e) for e in entries[:3]) + (", ..." if len(entries) > 3 else "")
@@ -229,11 +231,13 @@ def clean_stale(target):
         return done
     for p in sorted(siblings):
         name = p.name
-        for kind in (".tmp-", ".old-"):
+        for kind in (".tmp-", ".old-", ".probe-"):
             prefix = f".{target.name}{kind}"
             if not name.startswith(prefix) or not name[len(prefix):].isdigit() or p.is_symlink() \
                     or not p.is_dir():
                 continue
+            if kind == ".probe-" and _young(p):
+                continue                     # another run is trying its location right now
             fd = _lock(p)
             if fd is None:                   # a running process owns it
                 continue
@@ -257,6 +261,13 @@ def clean_stale(target):
 _YOUNG = 60.0
 
 
+def _young(path):
+    try:
+        return time.time() - path.stat().st_mtime <= _YOUNG
+    except OSError:
+        return True
+
+
 def _made_by_us(path):
     """Whether a leftover folder is ours: it has our mark (complete or being written),
     is a result folder of ours, or is empty and not new."""
@@ -268,9 +279,7 @@ def _made_by_us(path):
         pass
     try:
         if not any(path.iterdir()):
-            import time
-
-            return time.time() - path.stat().st_mtime > _YOUNG
+            return not _young(path)
     except OSError:
         return False
     return ours(path)[0]
