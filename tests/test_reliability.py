@@ -429,10 +429,13 @@ def test_case_values_refused(tmp_path, edit, expected):
     assert str(info.value) == f"{tmp_path}/case.toml: {expected}"
 
 
-@pytest.mark.parametrize("edit", [("E = 1.0e6", "E = 1.0e300"), ("DY = -1.0e-6", 'DY = "1e200"')],
-                         ids=["E-1e300", "DY-1e200"])
+@pytest.mark.parametrize("edit", [("E = 1.0e6", "E = 1.0e300"), ("DY = -1.0e-6", 'DY = "1e200"'),
+                                  ("coef_cont = 1.0e6", "coef_cont = 1.0e300"),
+                                  ("coef_frot = 1000.0", "coef_frot = 1.0e300")],
+                         ids=["E-1e300", "DY-1e200", "coef_cont-1e300", "coef_frot-1e300"])
 def test_nan_residual_writes_results_and_plots_exit_3(tmp_path, edit):
-    """With plots on, a NaN residual crashed the convergence plot and lost the folder."""
+    """With plots on, a NaN residual crashed the convergence plot and lost the folder (and
+    the COEF_FROT hint of the diagnosis crashed on the conditions at the dofs)."""
     case = write_case(tmp_path, edited(CONTACT, edit, ("plots = false", "plots = true")))
     out = tmp_path / "out"
     proc = run_cli(["run", case, "-o", out], timeout=TIMEOUT)
@@ -441,6 +444,17 @@ def test_nan_residual_writes_results_and_plots_exit_3(tmp_path, edit):
     errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
     assert len(errors) == 1 and "no convergence: Newton: the residual is NaN or infinite" in errors[0]
     assert results(out)["converged"] is False
+    assert (out / "plot_deformed.png").is_file()
+
+
+def test_mathtext_in_title(tmp_path):
+    """A title with '$...$' crashed matplotlib's mathtext parser after the solve (no folder)."""
+    case = write_case(tmp_path, edited(CONTACT, ('title = "probe"', 'title = "cost $\\\\frac{$ a"'),
+                                       ("plots = false", "plots = true")))
+    out = tmp_path / "out"
+    proc = run_cli(["run", case, "-o", out], timeout=TIMEOUT)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert proc.stderr == ""
     assert (out / "plot_deformed.png").is_file()
 
 
