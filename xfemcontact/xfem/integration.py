@@ -123,10 +123,17 @@ def segment_points(el, xc, seg, order, cell_ids=None):
     return SegmentPoints(seg.cells, xi, s, x, ws[None] * ds, n, tangent_of(n))
 
 
+#: |n_y| below this is a vertical interface (normals computed from curved segments carry
+#: round-off of a few 1e-14: with a tighter test the tangent of a vertical interface
+#: flipped between +e_y and -e_y from one point to the next)
+VERTICAL = 1e-10
+
+
 def tangent_of(n):
-    """code_aster's 2-D tangent: unit, non-negative x-component; e_y when n = +-e_x."""
+    """code_aster's 2-D tangent: unit, non-negative x-component; e_y when n = +-e_x
+    (to ``VERTICAL``)."""
     sgn = np.where(n[..., 1] >= 0, 1.0, -1.0)
     t = np.stack([sgn * n[..., 1], -sgn * n[..., 0]], axis=-1)
-    vertical = np.abs(n[..., 1]) <= 1e-14
+    vertical = np.abs(n[..., 1]) <= VERTICAL
     t[vertical] = [0.0, 1.0]
     return t
