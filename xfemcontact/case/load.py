@@ -34,11 +34,14 @@ class MeshSpec:
     key_file: str = "mesh.file"
 
 
+# The tables below hold the keys of their schema table (xfemcontact.case.schema, where
+# each key is described, once); tests/test_case.py checks that they match.
+
 @dataclass(frozen=True)
 class Material:
     E: float
     nu: float
-    model: str                        # "C_PLAN" | "D_PLAN"
+    model: str
 
 
 @dataclass(frozen=True)
@@ -64,28 +67,28 @@ class BodyForce:
 
 @dataclass(frozen=True)
 class Interface:
-    type: str                         # "INTERFACE"
+    type: str
     level_set: Formula | None
     level_set_field: str | None
-    law: str                          # "contact" | "bonded" | "free"
-    max_offset: float = 0.5           # refused beyond (fraction of h), see preflight
+    law: str
+    max_offset: float = 0.5
 
 
 @dataclass(frozen=True)
 class Contact:
-    friction: bool                    # frottement == "COULOMB" and coulomb > 0
+    friction: bool                    # derived: frottement == "COULOMB" and coulomb > 0
     coulomb: float
-    coef_cont: float | None           # None: chosen from the material and mesh
+    coef_cont: float | None
     coef_frot: float | None
-    contact_init: bool | str          # True, False or "interpenetrated"
+    contact_init: bool | str
     seuil_init: float | None
     iter_cont_maxi: int
     iter_frot_maxi: int
     resi_frot: float
-    ordre_int: int | None             # None: chosen from the cut cells (see schema)
-    algo_lagr: str = "AUTO"           # AUTO (= VERSION3) | VERSION3 | NON
-    integration: str = "NOEUD"        # NOEUD | GAUSS
-    friction_unknown: str = "LAGS_F1"  # LAGS_F1 (semi-multiplier) | TRACTION
+    ordre_int: int | None
+    algo_lagr: str = "AUTO"
+    integration: str = "NOEUD"
+    friction_unknown: str = "LAGS_F1"
 
 
 @dataclass(frozen=True)
