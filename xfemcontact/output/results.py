@@ -30,7 +30,9 @@ def summary(model, converged, reason, outcomes):
         "multipliers": model.problem.summary() if model.problem is not None else None,
         "timings": {k: round(v, 4) for k, v in timing.TIMINGS.items()},
         "solver_events": timing.solver_events(model.comm),
-        "memory": {"peak_mb_per_process": timing.peak_memory_mb(model.comm)},
+        "timing_steps": {k: round(v, 4) for k, v in timing.STEPS.items()},
+        "memory": {"peak_mb_per_process": timing.peak_memory_mb(model.comm),
+                   "phases": timing.phase_memory(model.comm)},
         "tests": [o.as_dict() for o in outcomes],
         "interface": interface_table(model),
     }
@@ -74,7 +76,8 @@ def write_fields(folder, model):
     """
     from xfemcontact.post import postmesh
 
-    post = postmesh.build(model)
+    with timing.step("output:postmesh"):
+        post = postmesh.build(model)
     if post is None:
         return None, []
     import meshio
@@ -82,7 +85,8 @@ def write_fields(folder, model):
     formats = model.case.output.formats
     written = []
     if "xdmf" in formats:
-        _write_xdmf(folder, "fields.xdmf", post.to_meshio())
+        with timing.step("output:xdmf"):
+            _write_xdmf(folder, "fields.xdmf", post.to_meshio())
         written += ["fields.xdmf", "fields.h5"]
     if "vtu" in formats:
         meshio.write(folder.file("fields.vtu"), post.to_meshio(), file_format="vtu")
@@ -98,17 +102,28 @@ def write_outputs(folder, model, converged, reason, outcomes, warnings=()):
     Collective; only rank 0 writes.  ``warnings``: more lines for report.md (the
     input checks' warnings)."""
     from xfemcontact.output import interface_csv, report
-    from xfemcontact.post import plots
 
     post, files = write_fields(folder, model)
-    table = interface_csv.build(model)
+    with timing.step("output:interface"):
+        table = interface_csv.build(model)
     summary_now = summary(model, converged, reason, outcomes)
     if model.comm.rank != 0:
         return
     warnings = list(warnings)
     if table is not None:
-        files += interface_csv.write(folder, table)
+        with timing.step("output:interface"):
+            files += interface_csv.write(folder, table)
         warnings += table.warnings
+    with timing.step("output:plots"):
+        files += _plots(folder, model, converged, post, table, summary_now)
+    with timing.step("output:report"):
+        report.write(folder, summary_now, files, case_source=model.case.source, warnings=warnings)
+
+
+def _plots(folder, model, converged, post, table, summary_now):
+    from xfemcontact.post import plots
+
+    files = []
     if model.case.output.plots:
         case = model.case
         criterion = case.newton.resi_glob_rela * model.load_norm if model.solver else None
@@ -119,7 +134,7 @@ def write_outputs(folder, model, converged, reason, outcomes, warnings=()):
                              history=summary_now["residual_history"], iterations=summary_now["iterations"],
                              criterion=criterion, resi_frot=resi_frot, young=case.material.E,
                              friction=friction)
-    report.write(folder, summary_now, files, case_source=model.case.source, warnings=warnings)
+    return files
 
 
 def _write_xdmf(folder, name, m):
