@@ -58,6 +58,15 @@ class PostMesh:
     point_data: dict        # name -> (np,)
     cell_data: dict         # name -> [(k,) per block]
 
+    def point_fields(self):
+        """``(name, array)`` of the point fields of the XDMF and VTU files: those of
+        :attr:`point_data`, then ``displacement`` (DX, DY, 0) for ParaView."""
+        yield from self.point_data.items()
+        pd = self.point_data
+        disp = np.zeros((len(self.points), 3))
+        disp[:, 0], disp[:, 1] = pd["DX"], pd["DY"]
+        yield "displacement", disp
+
     def to_meshio(self, med=False):
         """A meshio.Mesh: 3-D points and a ``displacement`` vector (for ParaView), or for
         MED (``med``) 2-D points and the node groups NFISSU, NM (LN < 0 copies) and NP."""
