@@ -103,6 +103,8 @@ def run(case_path, outdir=None, overwrite=False):
                        f"{', '.join(folder.cleaned)}")
         options.check_all()
         check_options()
+        if case.output.plots:
+            folder.start_plot_helper()      # imports matplotlib on a spare core meanwhile
     except Interrupted as exc:
         exc.outcome = _untouched(outdir)
         raise

@@ -80,14 +80,16 @@ def write_fields(folder, model):
         post = postmesh.build(model)
     if post is None:
         return None, []
-    import meshio
-
     formats = model.case.output.formats
     written = []
     if "xdmf" in formats:
+        from xfemcontact.output import xdmf
+
         with timing.step("output:xdmf"):
-            _write_xdmf(folder, "fields.xdmf", post.to_meshio())
+            xdmf.write(folder.file("fields.xdmf"), post)
         written += ["fields.xdmf", "fields.h5"]
+    if "vtu" in formats or "med" in formats:
+        import meshio
     if "vtu" in formats:
         meshio.write(folder.file("fields.vtu"), post.to_meshio(), file_format="vtu")
         written.append("fields.vtu")
@@ -100,52 +102,52 @@ def write_fields(folder, model):
 def write_outputs(folder, model, converged, reason, outcomes, warnings=()):
     """Every result file but results.json: fields, interface.csv, plots, report.md.
     Collective; only rank 0 writes.  ``warnings``: more lines for report.md (the
-    input checks' warnings)."""
-    from xfemcontact.output import interface_csv, report
+    input checks' warnings).
 
-    post, files = write_fields(folder, model)
+    The plots go to the folder's plot helper when it runs (started at the start of
+    the run, or here), in two batches, and are drawn here otherwise or when it
+    fails (:mod:`xfemcontact.output.plotter`): the files are the same.
+    """
+    from xfemcontact.output import interface_csv, report
+    from xfemcontact.post import plots
+
     with timing.step("output:interface"):
         table = interface_csv.build(model)
     summary_now = summary(model, converged, reason, outcomes)
-    if model.comm.rank != 0:
+    rank0 = model.comm.rank == 0
+    case = model.case
+    want_plots = rank0 and case.output.plots
+    helper = folder.start_plot_helper() if want_plots else None
+    title = case.title if converged else f"{case.title} -- NOT CONVERGED (last iterate)"
+    title = title.replace("$", r"\$")         # text, not mathtext
+    here = []                                  # plot jobs drawn by this process
+    if want_plots:
+        criterion = case.newton.resi_glob_rela * model.load_norm if model.solver else None
+        resi_frot = case.contact.resi_frot if model.solver and model.solver.record else None
+        jobs = plots.line_jobs(title, table, summary_now["residual_history"], summary_now["iterations"],
+                               criterion, resi_frot)
+        if not helper.send(jobs, folder.file(".")):
+            here += jobs
+    post, files = write_fields(folder, model)
+    if not rank0:
         return
     warnings = list(warnings)
     if table is not None:
         with timing.step("output:interface"):
             files += interface_csv.write(folder, table)
         warnings += table.warnings
-    with timing.step("output:plots"):
-        files += _plots(folder, model, converged, post, table, summary_now)
+    if want_plots:
+        with timing.step("output:plots"):
+            jobs = plots.mesh_jobs(title, post, table, case.material.E,
+                                   friction=bool(model.problem is not None and model.problem.friction))
+            if not helper.send(jobs, folder.file(".")):
+                here += jobs
+            drawn = plots.run(folder, here)
+        with timing.step("output:plots_wait"):
+            drawn += helper.finish()
+            missing = [job for job in helper.jobs if job[0] not in drawn]
+        if missing:
+            drawn += plots.run(folder, missing)
+        files += [name for name in plots.ORDER if name in drawn]
     with timing.step("output:report"):
-        report.write(folder, summary_now, files, case_source=model.case.source, warnings=warnings)
-
-
-def _plots(folder, model, converged, post, table, summary_now):
-    from xfemcontact.post import plots
-
-    files = []
-    if model.case.output.plots:
-        case = model.case
-        criterion = case.newton.resi_glob_rela * model.load_norm if model.solver else None
-        friction = bool(model.problem is not None and model.problem.friction)
-        resi_frot = case.contact.resi_frot if model.solver and model.solver.record else None
-        title = case.title if converged else f"{case.title} -- NOT CONVERGED (last iterate)"
-        files += plots.write(folder, title, post=post, table=table,
-                             history=summary_now["residual_history"], iterations=summary_now["iterations"],
-                             criterion=criterion, resi_frot=resi_frot, young=case.material.E,
-                             friction=friction)
-    return files
-
-
-def _write_xdmf(folder, name, m):
-    """XDMF + HDF5 with a relative data path (the folder is renamed afterwards)."""
-    import os
-
-    import meshio
-
-    cwd = os.getcwd()
-    os.chdir(folder.file("."))
-    try:
-        meshio.xdmf.write(name, m, data_format="HDF", compression=None)
-    finally:
-        os.chdir(cwd)
+        report.write(folder, summary_now, files, case_source=case.source, warnings=warnings)
