@@ -154,7 +154,7 @@ def deformed_data(points, blocks, point_data, cell_data, field="SIYY", stress_sc
         d["polygons"] = [xd[conn[:, OUTLINE[t]]] for t, conn in blocks]       # per block (k, nodes, 2)
         d["values"] = values
     else:
-        d["image"], d["extent"], d["how_drawn"] = _raster(xd, blocks, values, d["clim"], cell_data.get("subcell"))
+        d["image"], d["lines"], d["extent"], d["how_drawn"] = _raster(xd, blocks, values, cell_data.get("subcell"))
     nf = point_data.get("NFISSU")
     d["interface"] = {}
     if nf is not None:
@@ -181,8 +181,15 @@ def draw_deformed(d, title):
     field = d["field"]
     mappable = None
     if "image" in d:
-        ax.imshow(d["image"], origin="lower", interpolation="nearest", extent=d["extent"])
         mappable = ScalarMappable(norm=mcolors.Normalize(*d["clim"]), cmap="viridis")
+        img = d["image"]
+        rgba = mappable.to_rgba(np.nan_to_num(img, nan=d["clim"][0]))          # (H, W, 4) floats
+        rgba[np.isnan(img), 3] = 0.0
+        if d["lines"] is not None:                        # mesh lines: half-way to dark grey
+            on = d["lines"]
+            rgba[on, :3] = 0.5 * rgba[on, :3] + 0.125
+            rgba[on, 3] = 1.0
+        ax.imshow(rgba, origin="lower", interpolation="nearest", extent=d["extent"])
     else:
         pc = PolyCollection([p for block in d["polygons"] for p in block], edgecolors="0.25", linewidths=0.25)
         if d["values"] is not None:
@@ -214,13 +221,11 @@ def draw_deformed(d, title):
     return fig
 
 
-def _raster(xd, blocks, values, clim, subcell=None):
-    """The cells drawn into an RGBA image (large meshes); returns (image (H, W, 4)
-    uint8, extent, title words).  ``subcell``: per block, the sub-cell index of each
-    cell (-1 uncut), if known."""
-    import matplotlib.colors as mcolors
-    from matplotlib import colormaps
-
+def _raster(xd, blocks, values, subcell=None):
+    """The cells drawn into an image (large meshes), NumPy only: returns the image of
+    the cell values ``(H, W)`` (float32, NaN outside the mesh), the pixels of the mesh
+    lines ``(H, W)`` bool or None, the extent, and the title words.  ``subcell``: per
+    block, the sub-cell index of each cell (-1 uncut), if known."""
     lo, hi = _column_min(xd), _column_max(xd)
     span = np.maximum(hi - lo, 1e-300)
     px = float(span.max()) / RASTER_PIXELS                      # pixel size, m
@@ -242,22 +247,21 @@ def _raster(xd, blocks, values, clim, subcell=None):
                 cell.append(np.repeat(index[rows], len(local)))
         start += len(conn)
     tri, cell = np.concatenate(tri), np.concatenate(cell)
-    img = rasterise((xd[tri] - lo) / px, cell, W, H)
-    norm = mcolors.Normalize(*clim)
-    cmap = colormaps["viridis"]
-    rgba = np.zeros((H, W, 4))
-    inside = img >= 0
-    rgba[inside] = cmap(norm(values[img[inside]]))
+    label = rasterise((xd[tri] - lo) / px, cell, W, H)
+    img = np.full((H, W), np.nan, np.float32)
+    inside = label >= 0
+    img[inside] = values[label[inside]]
+    mask = None
     if lines:
-        edges = np.concatenate([conn[:, OUTLINE[t]][:, :, None][:, _ring(len(OUTLINE[t]))].reshape(-1, 2)
+        edges = np.concatenate([conn[:, OUTLINE[t]][:, _ring(len(OUTLINE[t]))].reshape(-1, 2)
                                 for t, conn in blocks])
         ex, ey = _segment_pixels((xd[edges] - lo) / px, W, H)
-        rgba[ey, ex, :3] = 0.5 * rgba[ey, ex, :3] + 0.5 * 0.25
-        rgba[ey, ex, 3] = 1.0
+        mask = np.zeros((H, W), bool)
+        mask[ey, ex] = True
     extent = (lo[0] - 0.5 * px, lo[0] + (W - 0.5) * px, lo[1] - 0.5 * px, lo[1] + (H - 0.5) * px)
     words = (f"\n{ncells} cells drawn as an image of {W} x {H} pixels"
              + ("" if lines else f" (cells of {cell_px:.1g} pixels: no mesh lines)"))
-    return np.rint(rgba * 255).astype(np.uint8), extent, words
+    return img, mask, extent, words
 
 
 def _column_min(a):
