@@ -422,9 +422,12 @@ def load(raw, comm=None, cell_weights=None):
     """
     comm = comm or PETSc.COMM_WORLD
     mpi = comm.tompi4py()
-    meta = mpi.bcast((raw.cell_type, raw.source, sorted(raw.point_data)) if mpi.rank == 0 else None,
-                     root=0)
-    cell_type, source, field_names = meta
+    meta = mpi.bcast((raw.cell_type, raw.source, sorted(raw.point_data), len(raw.cells), len(raw.points))
+                     if mpi.rank == 0 else None, root=0)
+    cell_type, source, field_names, ncells, nnodes = meta
+    from xfemcontact import resources
+
+    resources.check_cells(cell_type, ncells, comm.size, source, nodes=nnodes)   # before the DMPlex
     if mpi.rank != 0:
         raw = _Stub(cell_type, source)
     dm, node_of_point = _build_serial(raw, comm)
@@ -483,10 +486,19 @@ def _local_view(dm, sec, vec, cell_type, source, field_names=()):
     owned = np.ones(pend - pstart, dtype=bool)
     leaves = point_sf_leaves(dm)
     owned[leaves] = False
+    # the index arrays kept for the whole run in 32-bit integers when they fit (half the memory)
+    it = _index_type(max(pend, int(node_ids.max(initial=0)) + 1, int(cell_ids.max(initial=0)) + 1))
+    cells, cell_nodes, cell_ids = cells.astype(it), cell_nodes.astype(it), cell_ids.astype(it)
+    node_points, node_of_point, node_ids = node_points.astype(it), node_of_point.astype(it), node_ids.astype(it)
     return LocalMesh(dm=dm, cell_type=cell_type, cells=cells, cell_nodes=cell_nodes,
                      cell_ids=cell_ids, node_points=node_points, node_of_point=node_of_point,
                      x=x, node_ids=node_ids, node_owned=owned[node_points],
                      n_vertices=ve - vs, source=source, node_data=node_data)
+
+
+def _index_type(bound):
+    """int32 for indices below ``bound`` when it fits, else int64."""
+    return np.int32 if bound < np.iinfo(np.int32).max else np.int64
 
 
 def _local_cell_nodes(cell_input_nodes, node_ids):
