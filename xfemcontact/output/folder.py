@@ -408,8 +408,8 @@ class OutputFolder:
 
     def start_plot_helper(self):
         """Start the process that will draw the plots into this folder (rank 0; see
-        :mod:`xfemcontact.output.plotter`) and return it (None elsewhere).  Called at
-        the start of a run, it imports matplotlib while the run computes."""
+        :mod:`xfemcontact.output.plotter`) and return it (None elsewhere); the same
+        one when called again.  Stopped by :meth:`abort`."""
         if self.rank == 0 and self.plot_helper is None:
             from xfemcontact.output.plotter import PlotHelper
 

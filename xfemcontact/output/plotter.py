@@ -1,16 +1,16 @@
 """The PNG plots drawn by a helper process while the run writes its other files.
 
-Drawing the four plots takes matplotlib about a second, plus 0.3 s to import it.
+Drawing the four plots takes matplotlib most of a second, plus 0.3 s to import it.
 When the machine has a core the run does not use (one process on a 2-core
-machine), rank 0 starts a helper Python process at the start of the run
-(:meth:`PlotHelper.start`): it imports matplotlib and :mod:`xfemcontact.post.plots`
-while the mesh is built and the system solved, then waits.  After the solve the run
-sends it the plots' data in two batches (:meth:`PlotHelper.send`): the ones that
-need the interface table and the iteration record at once, the deformed mesh (as
-the image or polygons :func:`~xfemcontact.post.plots.deformed_data` reduced it to)
-after the post-processing mesh; the helper writes the PNGs into the output folder
-while the run writes fields.xdmf and interface.csv, and the run waits for it
-before report.md (:meth:`PlotHelper.finish`).
+machine), rank 0 starts a helper Python process when the output phase begins
+(:meth:`PlotHelper.start`): it imports matplotlib while the run gathers the
+interface table, and draws the plots that need only that table and the
+iteration record while the run builds the post-processing mesh and writes
+fields.xdmf; then the deformed mesh (as the image or polygons
+:func:`~xfemcontact.post.plots.deformed_data` reduced it to) and the statuses.
+The run waits for it before report.md (:meth:`PlotHelper.finish`).  It is not
+started earlier on purpose: during the factorisation it would hold about 45 MB
+(Python, NumPy, matplotlib) for nothing.
 
 Whatever goes wrong with the helper (it could not start, died, reported an
 error), the plots it did not confirm are drawn by the run itself: the files are

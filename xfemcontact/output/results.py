@@ -1,7 +1,7 @@
 """results.json and the field files ParaView opens."""
 import numpy as np
 
-from xfemcontact import __version__, timing
+from xfemcontact import __version__, resources, timing
 
 MESHIO_CELL = {"QUAD8": "quad8", "TRIA6": "triangle6"}
 
@@ -33,6 +33,7 @@ def summary(model, converged, reason, outcomes):
         "timing_steps": {k: round(v, 4) for k, v in timing.STEPS.items()},
         "memory": {"peak_mb_per_process": timing.peak_memory_mb(model.comm),
                    "phases": timing.phase_memory(model.comm)},
+        "resources": resources.summary(),
         "tests": [o.as_dict() for o in outcomes],
         "interface": interface_table(model),
     }
@@ -104,20 +105,20 @@ def write_outputs(folder, model, converged, reason, outcomes, warnings=()):
     Collective; only rank 0 writes.  ``warnings``: more lines for report.md (the
     input checks' warnings).
 
-    The plots go to the folder's plot helper when it runs (started at the start of
-    the run, or here), in two batches, and are drawn here otherwise or when it
-    fails (:mod:`xfemcontact.output.plotter`): the files are the same.
+    The plots go to the folder's plot helper process when there is a spare core,
+    in two batches, and are drawn here otherwise or when it fails
+    (:mod:`xfemcontact.output.plotter`): the files are the same.
     """
     from xfemcontact.output import interface_csv, report
     from xfemcontact.post import plots
 
-    with timing.step("output:interface"):
-        table = interface_csv.build(model)
-    summary_now = summary(model, converged, reason, outcomes)
     rank0 = model.comm.rank == 0
     case = model.case
     want_plots = rank0 and case.output.plots
-    helper = folder.start_plot_helper() if want_plots else None
+    helper = folder.start_plot_helper() if want_plots else None      # imports matplotlib meanwhile
+    with timing.step("output:interface"):
+        table = interface_csv.build(model)
+    summary_now = summary(model, converged, reason, outcomes)
     title = case.title if converged else f"{case.title} -- NOT CONVERGED (last iterate)"
     title = title.replace("$", r"\$")         # text, not mathtext
     here = []                                  # plot jobs drawn by this process
