@@ -205,6 +205,7 @@ class Model:
         """Newton (inside the outer loops of the interface problem, if any); returns the
         outermost SNES converged reason (> 0 converged)."""
         self.solver = NonlinearSolver(self)
+        self.layout.release_setup()      # PetscSections and DMPlex: not needed from here on
         release_heap()
         with phase("solve"):
             return self.solver.solve(self.x)

@@ -7,9 +7,9 @@ refusal of a case that cannot fit.
 
 The estimate follows the data: cells -> nodes -> dofs (two per node) -> nonzeros of
 the upper triangle of the matrix -> MUMPS factor entries (nested-dissection
-growth, ``n log2 n``, with PORD, the ordering Debian's MUMPS uses) -> peak
+growth, about ``n log^1.5 n`` with PORD, the ordering Debian's MUMPS uses) -> peak
 resident memory of a process, each step with a coefficient fitted to the runs of
-``bench/run_series.py`` (SSNV509 geometry, N = 80 .. 1000; see README,
+``bench/run_series.py`` (SSNV509 geometry, N = 160 .. 1000; see README,
 *Performance*).  It is meant to refuse what cannot fit before anything large is
 allocated, not to be exact: it is within about 10 % of the measured peaks of
 those runs, and the limit it is compared with keeps a margin.
@@ -27,7 +27,6 @@ its spec alone: a 10000 x 10000 rectangle is refused before a byte of it exists)
 DMPlex is built, and in :func:`xfemcontact.mesh.refine.refine_uniform` before a
 mesh read from a file is refined.
 """
-import math
 from dataclasses import asdict, dataclass
 
 from xfemcontact.errors import CaseError
@@ -37,17 +36,21 @@ from xfemcontact.errors import CaseError
 NODES_PER_CELL = {"QUAD8": 3.0, "TRIA6": 2.0}
 #: nonzeros of the matrix's upper triangle per dof (measured at N = 320, bench)
 NNZ_PER_DOF = {"QUAD8": 13.1, "TRIA6": 12.2}
-#: MUMPS factor entries (INFOG(29)) per dof and log2(dofs) (fitted, N = 160 .. 1000)
-FACTOR_PER_DOF_LOG2 = {"QUAD8": 7.5, "TRIA6": 6.8}
+#: MUMPS factor entries (INFOG(29)) at a reference size and their growth with the dofs
+#: (fitted to N = 160 .. 640: ``F = F_ref (n / n_ref) ** FACTOR_EXPONENT``, about n log^1.5 n)
+FACTOR_REFERENCE = {"QUAD8": (2469238, 412824463), "TRIA6": (3288532, 471584508)}
+FACTOR_EXPONENT = {"QUAD8": 1.115, "TRIA6": 1.11}
 #: peak resident MB of one process: BASE + PER_DOF x dofs + PER_ENTRY x factor entries
-#: (fitted to the bench's peaks; 8 bytes a factor entry plus MUMPS' work space, the
-#: matrix in PETSc and in MUMPS, the mesh, the dof layout, the vectors)
-BASE_MB = 110.0
-PER_DOF_MB = 260e-6
-PER_ENTRY_MB = 9.2e-6
-#: on P processes the distributed part per process is (1 / P) x this imbalance,
-#: plus what rank 0 holds alone before distribution (the input mesh)
-IMBALANCE = 1.15
+#: (the interpreter and libraries; the matrix, mesh, dof layout and vectors; MUMPS'
+#: factors, 8 bytes an entry, with its work space and copy of the matrix), fitted to
+#: the bench's peaks at N = 320 and 640 (within 6 %; 8 % low at N = 160)
+BASE_MB = 100.0
+PER_DOF_MB = 300e-6
+PER_ENTRY_MB = 12.6e-6
+#: on P processes the distributed part per process is (1 / P) x this imbalance
+#: (measured 1.18 - 1.29 on 2 processes at N = 320 and 640), plus the input mesh
+#: that rank 0 holds alone while it is distributed
+IMBALANCE = 1.3
 #: the virtual size of a process exceeds its resident peak by about this (MUMPS'
 #: relaxed work space, shared libraries)
 VIRTUAL_EXTRA_MB = 700.0
@@ -80,7 +83,8 @@ def estimate(cell_type, cells, nprocs=1, nodes=None):
     nodes = int(nodes if nodes is not None else NODES_PER_CELL[cell_type] * cells)
     dofs = 2 * nodes
     nnz = int(NNZ_PER_DOF[cell_type] * dofs)
-    factor = int(FACTOR_PER_DOF_LOG2[cell_type] * dofs * math.log2(max(dofs, 2)))
+    n_ref, f_ref = FACTOR_REFERENCE[cell_type]
+    factor = int(f_ref * (dofs / n_ref) ** FACTOR_EXPONENT[cell_type])
     shared = PER_DOF_MB * dofs + PER_ENTRY_MB * factor
     mesh_mb = 60e-6 * cells                       # the input mesh, rank 0 only, while it is distributed
     if nprocs <= 1:

@@ -53,12 +53,15 @@ class DofLayout:
         self.multiplier = np.asarray(multiplier, bool)
         self.fixed = np.asarray(fixed, bool) & np.c_[np.ones((n, 2), bool), self.enriched, self.enriched]
         self._counts = None        # free dofs by kind, summed over processes on first use
+        self._scatter = None       # see scatter
         self.section = self._build_section()
         dm = mesh.dm
         dm.setSection(self.section)
         self.global_section = dm.getGlobalSection()
         lg = dm.getLGMap().getIndices() if self.section.getStorageSize() else np.zeros(0, PETSc.IntType)
-        self._index_arrays(np.asarray(lg, dtype=PETSc.IntType))
+        #: global index of every local dof (-1 constrained)
+        self.lg = np.asarray(lg, dtype=PETSc.IntType)
+        self._index_arrays(self.lg)
 
     # -- section ------------------------------------------------------------
     def _dofs_per_field(self):
@@ -111,16 +114,7 @@ class DofLayout:
         two = np.arange(2, dtype=it)
         self.u_local = off[:, None] + two
         self.h_local = np.where(e[:, None], off[:, None] + 2 + two, it(-1))
-        lag0 = off + 2 + 2 * e.astype(it)
-        self.lag_local = np.where(m[:, None], lag0[:, None] + two, it(-1))
-
-        def glob(local):
-            if not len(lg):
-                return np.full(local.shape, -1, it)
-            g = np.where(local >= 0, lg[np.maximum(local, 0)], it(-1))
-            return np.where(g >= 0, g, it(-1))
-
-        self.u_global, self.h_global, self.lag_global = glob(self.u_local), glob(self.h_local), glob(self.lag_local)
+        self._derived = {}         # the arrays below, computed on first use (see release_setup)
         constrained = np.zeros(self.local_size, dtype=bool)
         constrained[self.u_local[self.fixed[:, :2]]] = True
         hfix = self.h_local[self.fixed[:, 2:]]
@@ -134,12 +128,82 @@ class DofLayout:
         self.global_size = self.mesh.comm.tompi4py().allreduce(self.owned_size)
         self.ownership_start = self.mesh.comm.tompi4py().exscan(self.owned_size) or 0
 
+    # -- derived index arrays (recomputed after release_setup if asked for) ----
+    @property
+    def lag_local(self):
+        """``(n, 2)`` local LAGS_C, LAGS_F1 dof of every node (-1 where absent)."""
+        if "lag_local" not in self._derived:
+            it = PETSc.IntType
+            lag0 = self.u_local[:, 0] + 2 + 2 * self.enriched.astype(it)
+            self._derived["lag_local"] = np.where(self.multiplier[:, None], lag0[:, None] + np.arange(2, dtype=it),
+                                                  it(-1))
+        return self._derived["lag_local"]
+
+    def _global(self, name, local):
+        if name not in self._derived:
+            it, lg = PETSc.IntType, self.lg
+            if not len(lg):
+                g = np.full(local.shape, -1, it)
+            else:
+                g = np.where(local >= 0, lg[np.maximum(local, 0)], it(-1))
+                g = np.where(g >= 0, g, it(-1))
+            self._derived[name] = g
+        return self._derived[name]
+
+    @property
+    def u_global(self):
+        """``(n, 2)`` global DX, DY dof of every node (-1: constrained)."""
+        return self._global("u_global", self.u_local)
+
+    @property
+    def h_global(self):
+        """``(n, 2)`` global H1X, H1Y dof (-1: absent or constrained)."""
+        return self._global("h_global", self.h_local)
+
+    @property
+    def lag_global(self):
+        """``(n, 2)`` global LAGS_C, LAGS_F1 dof (-1: absent)."""
+        return self._global("lag_global", self.lag_local)
+
     # -- vectors ------------------------------------------------------------
     def create_global_vec(self):
-        return self.mesh.dm.createGlobalVec()
+        """A global vector (this process's ``owned_size`` free dofs, in global order)."""
+        v = PETSc.Vec().create(comm=self.mesh.comm)
+        v.setSizes((self.owned_size, self.global_size))
+        v.setType(PETSc.Vec.Type.STANDARD)
+        return v
 
     def create_local_vec(self):
-        return self.mesh.dm.createLocalVec()
+        """A sequential vector of this process's dofs (``local_size``), constrained ones included."""
+        return PETSc.Vec().createSeq(self.local_size, comm=PETSc.COMM_SELF)
+
+    @property
+    def scatter(self):
+        """``(Scatter, local Vec)`` from the free local dofs to their global entries (several
+        processes only; built on first use): forward with ADD_VALUES sums the shared dofs
+        of every process into their owner, reverse with INSERT_VALUES gives every process
+        the values of its dofs."""
+        if self._scatter is None:
+            free = self.free_local
+            it = PETSc.IntType
+            lv = PETSc.Vec().createSeq(self.local_size, comm=PETSc.COMM_SELF)
+            g = self.create_global_vec()
+            src = PETSc.IS().createGeneral(free.astype(it), comm=PETSc.COMM_SELF)
+            dst = PETSc.IS().createGeneral(self.lg[free].astype(it), comm=PETSc.COMM_SELF)
+            self._scatter = (PETSc.Scatter().create(lv, src, g, dst), lv)
+            src.destroy()
+            dst.destroy()
+            g.destroy()
+        return self._scatter
+
+    def release_setup(self):
+        """Drop what only the set-up needed, before the factorisation (idempotent): the
+        PetscSections, the DMPlex (:meth:`LocalMesh.release_topology`) and the global
+        and multiplier index arrays (recomputed if asked for again).  Vectors and
+        transfers do not depend on them.  TRIA6 N = 320: 62 MB."""
+        self.section = self.global_section = None
+        self._derived.clear()
+        self.mesh.release_topology()
 
     def local_array(self):
         """A zero local work array (``local_size + 1`` entries, the last one the dummy)."""
