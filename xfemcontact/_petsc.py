@@ -51,37 +51,8 @@ def init(argv=None):
     petsc4py = _import_petsc4py()
     if "petsc4py.PETSc" not in sys.modules:
         petsc4py.init([sys.argv[0] if sys.argv else "xfemcontact"] + list(argv or []))
-        _restore_malloc()
     from petsc4py import PETSc as _PETSc
     return _PETSc
-
-
-#: glibc mallopt parameters
-_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD, _M_MMAP_MAX = -1, -3, -4
-
-
-def _restore_malloc():
-    """Let freed memory go back to the system again.
-
-    Debian's SuperLU_DIST (loaded with PETSc) turns glibc's mmap off and its heap
-    trimming off when it is loaded (``mallopt(M_MMAP_MAX, 0)``,
-    ``mallopt(M_TRIM_THRESHOLD, -1)``): nothing freed was ever returned, a
-    factorisation's memory stayed resident after it was released, and large
-    arrays had to fit in the fragmented heap (TRIA6 320 x 320: 190 MB more peak).
-    Blocks of 32 MB and more are mapped again (and unmapped when freed) and the
-    top of the heap is trimmed beyond 64 MB free -- glibc's own upper limits for
-    these thresholds; smaller temporaries keep reusing the heap (fresh pages cost
-    a page fault each).
-    """
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL(None)
-        libc.mallopt(_M_MMAP_MAX, 65536)
-        libc.mallopt(_M_MMAP_THRESHOLD, 32 << 20)
-        libc.mallopt(_M_TRIM_THRESHOLD, 64 << 20)
-    except (OSError, AttributeError):     # not glibc: nothing to undo
-        pass
 
 
 def _pending_argv():

@@ -30,48 +30,17 @@ def event(name):
     return _EVENTS[name]
 
 
-#: phases run with glibc giving freed blocks of 128 kB and more back at once (see phase)
-LEAN_PHASES = ("solve",)
-
-
 @contextmanager
 def phase(name):
-    """Time ``name`` (see the module docstring).  The phases of :data:`LEAN_PHASES` (the
-    solve: MUMPS' analysis and factorisations) run with glibc's thresholds at their
-    defaults of 128 kB (blocks of that size mapped apart, and the heap top trimmed
-    beyond it): what the analysis frees does not stay resident beside the factors
-    (20 MB less peak at 825k dofs); elsewhere larger thresholds save page faults."""
     ev = event(name)
     ev.begin()
-    lean = name in LEAN_PHASES and _set_malloc(LEAN_THRESHOLD, LEAN_THRESHOLD)
     t0 = time.perf_counter()
     try:
         yield
     finally:
         TIMINGS[name] = TIMINGS.get(name, 0.0) + time.perf_counter() - t0
-        if lean:
-            _set_malloc(*DEFAULT_THRESHOLDS)
         MEMORY[name] = memory_now()
         ev.end()
-
-
-#: glibc mallopt parameters, and the thresholds (mmap, trim) in and out of lean phases
-_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
-LEAN_THRESHOLD = 128 << 10
-DEFAULT_THRESHOLDS = (32 << 20, 64 << 20)
-
-
-def _set_malloc(mmap_threshold, trim_threshold):
-    """glibc's mmap and trim thresholds (bytes); False where there is no mallopt."""
-    import ctypes
-
-    try:
-        libc = ctypes.CDLL(None)
-        libc.mallopt(_M_MMAP_THRESHOLD, int(mmap_threshold))
-        libc.mallopt(_M_TRIM_THRESHOLD, int(trim_threshold))
-    except (OSError, AttributeError):
-        return False
-    return True
 
 
 @contextmanager
@@ -161,7 +130,12 @@ def release_heap():
       object goes away, it only queues it until ``PETSc.garbage_cleanup()``
       (collective; at TRIA6 N = 320 that held 21 MB of a mesh transfer vector
       until the end of the run);
-    * glibc keeps freed heap pages: ``malloc_trim`` (a no-op where it does not exist).
+    * glibc keeps freed heap pages: ``malloc_trim`` (a no-op where it does not
+      exist).  Debian's SuperLU_DIST, which PETSc loads, switches glibc's own
+      trimming and its mmap of large blocks off (``mallopt``); that is kept: the
+      second factorisation then reuses the pages of the first instead of faulting
+      1.2 GB of fresh ones in again (TRIA6 N = 320: 1.3 s of system time), and
+      this trim is the one moment memory is given back.
     """
     import ctypes
     import ctypes.util
