@@ -39,6 +39,7 @@ class PlotHelper:
         self.proc = None
         self.jobs = []            # the jobs sent
         self._writers = []        # threads writing to the helper's pipe
+        self.times = {}           # the helper's CPU seconds: "import", and per PNG
 
     @property
     def sent(self):
@@ -93,14 +94,15 @@ class PlotHelper:
         return True
 
     def finish(self, timeout=TIMEOUT):
-        """Wait for the helper; returns the names of the PNGs it wrote."""
+        """Wait for the helper; returns the names of the PNGs it wrote.  Its CPU times
+        (import, each plot) are left in :attr:`times`."""
         if self.proc is None:
             return []
         for writer in self._writers:
             writer.join()
         try:
             out, _ = self.proc.communicate(timeout=timeout)     # closes the helper's stdin first
-            done = pickle.loads(out) if out else []
+            done, self.times = pickle.loads(out) if out else ([], {})
         except Exception:            # timeout, crash, garbage on the pipe: draw them ourselves
             self.stop()
             return []
@@ -121,18 +123,24 @@ class PlotHelper:
         self.proc = None
 
 
-def run_jobs(jobs, folder_path):
-    """Draw ``jobs`` into ``folder_path``; returns the names written."""
+def run_jobs(jobs, folder_path, times=None):
+    """Draw ``jobs`` into ``folder_path``; returns the names written (CPU seconds of
+    each into ``times``)."""
+    import time
+
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     from xfemcontact.post import plots
 
     done = []
     for name, function, args in jobs:
+        t0 = time.process_time()
         fig = getattr(plots, function)(*args)
         FigureCanvasAgg(fig)             # the figure is drawn once, by savefig
         fig.savefig(os.path.join(folder_path, name), **plots.SAVE_OPTIONS)
         done.append(name)
+        if times is not None:
+            times[name] = round(time.process_time() - t0, 4)
     return done
 
 
@@ -146,6 +154,9 @@ def serve():
         os.sched_setaffinity(0, range(os.cpu_count() or 1))    # not bound to the run's core
     except (AttributeError, OSError):
         pass
+    import time
+
+    t0 = time.process_time()
     import matplotlib
 
     matplotlib.use("Agg")
@@ -155,6 +166,7 @@ def serve():
     from xfemcontact.post import plots  # noqa: F401
 
     Figure()                             # fonts and rc parameters loaded before the data comes
+    times = {"import": round(time.process_time() - t0, 4)}
     done = []
     stdin = sys.stdin.buffer
     while True:
@@ -165,11 +177,11 @@ def serve():
         except Exception:
             break
         try:
-            done += run_jobs(jobs, folder)
+            done += run_jobs(jobs, folder, times)
         except Exception:
             break
     try:
-        sys.stdout.buffer.write(pickle.dumps(done))
+        sys.stdout.buffer.write(pickle.dumps((done, times)))
         sys.stdout.buffer.flush()
     except OSError:
         pass

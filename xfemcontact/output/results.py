@@ -147,6 +147,8 @@ def write_outputs(folder, model, converged, reason, outcomes, warnings=()):
         with timing.step("output:plots_wait"):
             drawn += helper.finish()
             missing = [job for job in helper.jobs if job[0] not in drawn]
+        for name, cpu in helper.times.items():      # the helper's CPU seconds, for the bench
+            timing.STEPS[f"plot_helper_cpu:{name}"] = cpu
         if missing:
             drawn += plots.run(folder, missing)
         files += [name for name in plots.ORDER if name in drawn]
