@@ -116,10 +116,8 @@ def solver_events(comm):
 
 
 def peak_memory_mb(comm):
-    """Peak resident memory of every process, MB."""
-    import resource
-
-    return comm.tompi4py().allgather(round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0, 1))
+    """Peak resident memory of every process, MB (VmHWM, as the phases')."""
+    return comm.tompi4py().allgather(memory_now()[1])
 
 
 def release_heap():
