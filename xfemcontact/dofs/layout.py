@@ -109,7 +109,7 @@ class DofLayout:
         self.dummy = self.local_size
         # index arrays in PETSc's integer type (half the memory of int64 with 32-bit PETSc)
         it = PETSc.IntType
-        e, m = self.enriched, self.multiplier
+        e = self.enriched
         off = off.astype(it)
         two = np.arange(2, dtype=it)
         self.u_local = off[:, None] + two
