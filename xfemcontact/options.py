@@ -100,6 +100,10 @@ OPTIONS = {o.name: o for o in (
            "largest amount of data (MB) a mesh file may declare (node coordinates, cells, "
            "fields, after decompression); larger files are refused before they are read",
            gt=0, le=1e9, default_doc="1/16 of this machine's memory"),
+    Option("memory_limit", "float",
+           "memory (MB) the case may use on all processes together; a case whose estimate "
+           "does not fit is refused before the mesh is built; 0 switches the check off",
+           ge=0, le=1e12, default_doc="what the machine, its cgroup and ulimit -v give"),
 )}
 
 

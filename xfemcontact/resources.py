@@ -176,12 +176,11 @@ def limits(option=None):
 
 def _option_mb():
     """-xfc_memory_limit MB: None if not given; 0 or less: no check (returns -1)."""
-    from xfemcontact._petsc import PETSc
+    from xfemcontact import options
 
-    opts = PETSc.Options()
-    if not opts.hasName("xfc_memory_limit"):
+    value = options.get("memory_limit")
+    if value is None:
         return None
-    value = opts.getReal("xfc_memory_limit", 0.0)
     return value if value > 0 else -1.0
 
 
