@@ -47,7 +47,9 @@ partition:
    where a merge would force zero variation along the edge.  The reported
    smallest eigenvalue is that of the packet with the merge.  Neighbouring
    ties (a flat stretch) may take each other's roots: every tie is finally
-   written in free carriers.
+   written in free carriers.  A gradient tie keeps linear fields, the signed
+   distance of a straight stretch among them, whose trace is zero: where the
+   final space has a kernel again, the ties of that set go back to merges.
 
 Merged vertices share the dof held by the representative (the smallest input
 node index of the class).
@@ -179,8 +181,14 @@ def build(mesh, segments, algo="AUTO", lin_at_points=None, weights=None):
                             n_weak=int((~strong).sum()))
     if algo != "NON" and len(carriers):
         _tie_kernels(space, mesh, edges, r, lin_at_points, weights)
-        if space.tie_edges:
-            space = _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts)
+        merged = set()
+        while space.tie_edges:
+            tied = _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts, merged)
+            kernel = _kernel_carriers(tied, mesh, lin_at_points, weights)
+            more = {(a, b) for a, b, _ in space.tie_edges if a in kernel or b in kernel} - merged
+            if not more:
+                return tied
+            merged |= more           # gradient ties that leave a kernel go back to merges
     return space
 
 
@@ -199,7 +207,24 @@ def convex_weights(points, target):
     return w / w.sum()
 
 
-def _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts):
+def _kernel_carriers(space, mesh, lin_at_points, weights):
+    """Global ids of the carriers of every set of carriers sharing cut cells whose
+    trace Gram matrix, with the space's merges, is singular (scaled eigenvalue
+    below ``SINGULAR``).  A gradient tie keeps linear fields exact, and on a
+    straight stretch the interpolant of the signed distance is such a field with
+    a zero trace: the kernel the packet ties removed can come back."""
+    G = _gram(space, mesh, lin_at_points, weights)
+    root = np.searchsorted(space.ids, space.rep)
+    ncomp, comp = connected_components(G != 0, directed=False)
+    bad = []
+    for c in range(ncomp):
+        members = np.nonzero(comp == c)[0]
+        if len(members) > 1 and _merged_eigenvalue(G[members][:, members], members, root) < SINGULAR:
+            bad.append(space.ids[members])
+    return set(np.concatenate(bad).tolist()) if bad else set()
+
+
+def _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts, merged=frozenset()):
     """Turn the ties of weak (not singular) packets into gradient ties; a new space.
 
     A merge tie (a, b) forces lam_a = lam_b: no variation of the multiplier along
@@ -208,7 +233,8 @@ def _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts):
     read from the other crossed edges of the cells holding (a, b): exact for linear
     fields, and it still removes the edge's own weak mode.  Ties of singular packets
     (eigenvalue below ``SINGULAR``: straight interfaces, whose kernel *is* a linear
-    field) and ties without a neighbouring crossed edge stay merges.
+    field), ties without a neighbouring crossed edge and the ties of ``merged``
+    (pairs of global ids) stay merges.
 
     In ``T_convex`` of the new space the gradient ties are merges lam_a = lam_b.
     """
@@ -216,7 +242,7 @@ def _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts):
     cell_edges = edges.reshape(-1, 2, 2)
     tied = {}
     for a, b, lam in space.tie_edges:
-        if lam < SINGULAR or a in tied or b in tied:
+        if lam < SINGULAR or a in tied or b in tied or (a, b) in merged:
             continue
         in_cells = np.nonzero(np.isin(cverts, [a, b]).sum(axis=1) == 2)[0]
         nb = {tuple(sorted(e)) for c in in_cells for e in cell_edges[c] if e[0] >= 0}
