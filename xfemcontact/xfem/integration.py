@@ -34,7 +34,7 @@ class CellPoints:
     xi: FloatArray       # (k, nq, 2) parent reference coordinates
     x: FloatArray        # (k, nq, 2) physical coordinates, m
     w: FloatArray        # (k, nq) weights, m^2 (0 on padding)
-    side: IntArray       # (k, nq) -1 / +1 (0 on padding)
+    side: IntArray | FloatArray     # (k, nq) -1 / +1 (0 on padding)
     dNdx: FloatArray     # (k, nq, nn, 2) physical gradients of the parent's shape functions
     N: FloatArray        # (k, nq, nn) parent shape functions
 
@@ -102,7 +102,7 @@ def _centre(el: Element) -> FloatArray:
     return el.ref_nodes[: el.nv].mean(axis=0)
 
 
-def cell_points(el: Element, xc: FloatArray, cells: IntArray, side: IntArray,
+def cell_points(el: Element, xc: FloatArray, cells: IntArray, side: IntArray | FloatArray,
                 degree: int = 4) -> CellPoints:
     """Standard quadrature of whole (uncut) cells, all on side ``side (k,)``."""
     q, wq = el.quadrature(degree)
