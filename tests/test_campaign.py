@@ -202,7 +202,9 @@ CURVED = [
     ("curved_ssnv509_mu02_quad8", None),
     ("curved_ssnv509_mu02_tria6_gmsh", None),
     ("curved_arc_shear_quad8", None),
-    ("curved_arc_shear_quad8_gmsh", "no convergence: a Newton solve reaches ITER_GLOB_MAXI = 30"),
+    # a gradient tie (weights 4.7 from nearly parallel crossed edges) made two dofs' lumped
+    # weights negative (-1.33): no convergence until such ties went back to merges
+    ("curved_arc_shear_quad8_gmsh", None),
     ("curved_inclusion_mixed_quad8", "no convergence: a Newton solve reaches ITER_GLOB_MAXI = 30"),
     ("curved_inclusion_mixed_tria6_gmsh", "no convergence: a Newton solve reaches ITER_GLOB_MAXI = 30"),
 ]
