@@ -164,12 +164,3 @@ def test_straight_interfaces_leave_no_kernel(theta):
     space = problem.space
     assert cspace._kernel_carriers(space, model.mesh, problem._lin, problem.points.w) == set()
 
-
-@pytest.mark.parametrize("path", [CASES / "campaign" / "curved_arc_shear_quad8_gmsh.toml",
-                                  CASES / "ssnv509a.toml", CASES / "ssnv509b.toml"])
-def test_lumped_weights_are_positive(path):
-    """Every multiplier dof has a positive lumped weight D_a = int phi_a ds, the premise
-    of the conditions written at the dofs (a gradient tie read from nearly parallel
-    crossed edges gave D_a = -1.33 for a largest 1.75 on the Gmsh quadrangles)."""
-    problem = Model(load_case(path)).problem
-    assert (problem._D[problem.slot] > 0).all()
