@@ -19,7 +19,7 @@ TYPED = [
     "contact/laws/*.py",
     "post/testtable.py", "post/projection.py",
     "solver/diagnose.py",
-    "mesh/*.py", "dofs/*.py",
+    "mesh/*.py", "dofs/*.py", "assembly/*.py",
 ]
 
 
