@@ -16,7 +16,7 @@ TYPED = [
     "fem/*.py", "xfem/*.py", "case/*.py",
     "contact/space.py", "contact/dofmap.py", "contact/nodal.py",
     "contact/gauss_point.py", "contact/scales.py", "contact/threshold.py",
-    "contact/laws/*.py",
+    "contact/laws/*.py", "contact/operator.py",
     "post/testtable.py", "post/projection.py",
     "solver/diagnose.py",
     "mesh/*.py", "dofs/*.py", "assembly/*.py",
