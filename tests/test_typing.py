@@ -20,6 +20,7 @@ TYPED = [
     "post/testtable.py", "post/projection.py",
     "solver/diagnose.py",
     "mesh/*.py", "dofs/*.py", "assembly/*.py",
+    "output/folder.py", "output/results.py", "output/report.py", "output/plotter.py",
 ]
 
 
