@@ -17,7 +17,7 @@ TYPED = [
     "contact/space.py", "contact/dofmap.py", "contact/nodal.py",
     "contact/gauss_point.py", "contact/scales.py", "contact/threshold.py",
     "contact/laws/*.py", "contact/operator.py",
-    "post/testtable.py", "post/projection.py",
+    "post/*.py",
     "solver/diagnose.py",
     "mesh/*.py", "dofs/*.py", "assembly/*.py",
     "output/folder.py", "output/results.py", "output/report.py", "output/plotter.py",
