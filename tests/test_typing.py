@@ -12,13 +12,15 @@ PACKAGE = ROOT / "xfemcontact"
 
 # files (relative to the package) whose public API must be fully annotated
 TYPED = [
-    "errors.py", "options.py", "preflight.py",
+    "errors.py", "options.py", "preflight.py", "__init__.py", "_petsc.py", "timing.py", "resources.py",
     "fem/*.py", "xfem/*.py", "case/*.py",
     "contact/space.py", "contact/dofmap.py", "contact/nodal.py",
     "contact/gauss_point.py", "contact/scales.py", "contact/threshold.py",
-    "contact/laws/*.py",
-    "post/testtable.py", "post/projection.py",
+    "contact/laws/*.py", "contact/operator.py",
+    "post/*.py",
     "solver/diagnose.py",
+    "mesh/*.py", "dofs/*.py", "assembly/*.py",
+    "output/folder.py", "output/results.py", "output/report.py", "output/plotter.py",
 ]
 
 

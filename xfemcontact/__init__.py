@@ -6,6 +6,8 @@ The data flow follows the sub-packages: ``case`` (TOML case files, formulas) ->
 interface terms) -> ``contact`` (pointwise law) and ``solver`` (SNES loops) ->
 ``post`` (fields, interface values, tests) -> ``output`` (files, report).
 """
+from __future__ import annotations
+
 import os as _os
 
 # One BLAS thread per process unless the user says otherwise: parallelism comes
@@ -17,4 +19,4 @@ __version__ = "0.1.0"
 
 #: PETSc options handed to PetscInitialize (set by the command line before the
 #: first import of petsc4py).
-PETSC_ARGV = []
+PETSC_ARGV: list[str] = []

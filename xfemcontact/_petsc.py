@@ -17,13 +17,19 @@ PETSc reads some options only when it starts (``-log_view``, ``-help``), so the
 command line stores the options it did not consume in
 ``xfemcontact.PETSC_ARGV`` before anything imports this module.
 """
+from __future__ import annotations
+
 import os
 import sys
+from typing import TYPE_CHECKING, Any, MutableMapping, Sequence
+
+if TYPE_CHECKING:
+    from types import ModuleType
 
 DEBIAN_PETSC_DIR = "/usr/lib/petscdir/petsc3.18/x86_64-linux-gnu-real"
 
 
-def _import_petsc4py():
+def _import_petsc4py() -> ModuleType:
     try:
         import petsc4py
     except ImportError:
@@ -34,7 +40,7 @@ def _import_petsc4py():
     return petsc4py
 
 
-def _single_host_pml(env=os.environ):
+def _single_host_pml(env: MutableMapping[str, str] = os.environ) -> None:
     """``OMPI_MCA_pml=ob1`` when all processes are local and no PML was chosen."""
     if "OMPI_MCA_pml" in env:
         return
@@ -44,8 +50,9 @@ def _single_host_pml(env=os.environ):
         env["OMPI_MCA_pml"] = "ob1"
 
 
-def init(argv=None):
-    """Initialise PETSc with ``argv`` (a list of PETSc options); idempotent."""
+def init(argv: Sequence[str] | None = None) -> Any:
+    """Initialise PETSc with ``argv`` (a list of PETSc options); idempotent.  Returns the
+    ``petsc4py.PETSc`` module (Any: petsc4py has no type information)."""
     if "petsc4py.PETSc" not in sys.modules:
         _single_host_pml()
     petsc4py = _import_petsc4py()
@@ -55,7 +62,7 @@ def init(argv=None):
     return _PETSc
 
 
-def _pending_argv():
+def _pending_argv() -> list[str]:
     pkg = sys.modules.get("xfemcontact")
     return list(getattr(pkg, "PETSC_ARGV", []))
 

@@ -27,9 +27,19 @@ its spec alone: a 10000 x 10000 rectangle is refused before a byte of it exists)
 DMPlex is built, and in :func:`xfemcontact.mesh.refine.refine_uniform` before a
 mesh read from a file is refined.
 """
+from __future__ import annotations
+
 from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING, Any
 
 from xfemcontact.errors import CaseError
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+    from petsc4py import PETSc
+
+    from xfemcontact.case.load import Case, MeshSpec
+    from xfemcontact.errors import XfcError
 
 #: nodes per cell of large meshes (N x N rectangles: QUAD8 3 N^2 + 4 N + 1 nodes for
 #: N^2 cells, TRIA6 4 N^2 + 4 N + 1 for 2 N^2)
@@ -58,11 +68,13 @@ VIRTUAL_EXTRA_MB = 700.0
 MARGIN = 0.95
 
 #: the estimate and limit of the last check (results.json "resources")
-LAST = {}
+LAST: dict[str, Any] = {}
 
 
 @dataclass
 class Estimate:
+    """What a mesh needs (see the module documentation): sizes, and memory in MB."""
+
     cell_type: str
     cells: int
     nodes: int
@@ -73,11 +85,11 @@ class Estimate:
     peak_mb: float             # largest process (rank 0)
     total_mb: float            # all processes
 
-    def as_dict(self):
+    def as_dict(self) -> dict[str, Any]:
         return {k: (round(v, 1) if isinstance(v, float) else v) for k, v in asdict(self).items()}
 
 
-def estimate(cell_type, cells, nprocs=1, nodes=None):
+def estimate(cell_type: str, cells: int, nprocs: int = 1, nodes: int | None = None) -> Estimate:
     """The :class:`Estimate` for ``cells`` cells of ``cell_type`` on ``nprocs`` processes
     (``nodes`` if known, else from the cell count)."""
     nodes = int(nodes if nodes is not None else NODES_PER_CELL[cell_type] * cells)
@@ -97,7 +109,7 @@ def estimate(cell_type, cells, nprocs=1, nodes=None):
     return Estimate(cell_type, int(cells), nodes, dofs, nnz, factor, int(nprocs), peak, total)
 
 
-def rectangle_cells(spec):
+def rectangle_cells(spec: MeshSpec) -> tuple[str, int] | None:
     """``(cell_type, cells)`` of a case's generated rectangle (refinement included), or
     None for a mesh file."""
     rect = spec.rectangle
@@ -110,7 +122,7 @@ def rectangle_cells(spec):
 
 # -- what the machine can give -------------------------------------------------------------
 
-def _read(path):
+def _read(path: str) -> str | None:
     try:
         with open(path) as f:
             return f.read().strip()
@@ -118,7 +130,7 @@ def _read(path):
         return None
 
 
-def _meminfo_mb(key="MemAvailable"):
+def _meminfo_mb(key: str = "MemAvailable") -> float | None:
     text = _read("/proc/meminfo") or ""
     for line in text.splitlines():
         if line.startswith(key + ":"):
@@ -126,7 +138,7 @@ def _meminfo_mb(key="MemAvailable"):
     return None
 
 
-def _cgroup_mb():
+def _cgroup_mb() -> float | None:
     """What the cgroup of this process still allows, MB (None without a limit)."""
     rel = None
     for line in (_read("/proc/self/cgroup") or "").splitlines():
@@ -135,7 +147,7 @@ def _cgroup_mb():
             rel = parts[2]
             if parts[0] == "0":
                 break
-    candidates = []
+    candidates: list[float] = []
     if rel is not None:
         for base in ("/sys/fs/cgroup" + rel, "/sys/fs/cgroup"):
             limit, used = _read(base + "/memory.max"), _read(base + "/memory.current")
@@ -150,7 +162,7 @@ def _cgroup_mb():
     return min(candidates) if candidates else None
 
 
-def _address_space_mb():
+def _address_space_mb() -> float | None:
     """``ulimit -v`` of this process, MB (None when unlimited)."""
     import resource
 
@@ -158,12 +170,12 @@ def _address_space_mb():
     return None if soft == resource.RLIM_INFINITY else soft / 2**20
 
 
-def limits(option=None):
+def limits(option: float | None = None) -> tuple[float | None, float | None, str | None]:
     """``(limit of all processes MB, limit of one process's virtual size MB, what set it)``:
     ``option`` (MB, from -xfc_memory_limit) if given, else what the machine can give."""
     if option is not None:
         return option, None, "-xfc_memory_limit"
-    found = []
+    found: list[tuple[float, str]] = []
     avail = _meminfo_mb()
     if avail is not None:
         found.append((avail, "MemAvailable"))
@@ -174,7 +186,7 @@ def limits(option=None):
     return total, _address_space_mb(), why
 
 
-def _option_mb():
+def _option_mb() -> float | None:
     """-xfc_memory_limit MB: None if not given; 0 or less: no check (returns -1)."""
     from xfemcontact import options
 
@@ -186,11 +198,12 @@ def _option_mb():
 
 # -- the checks ----------------------------------------------------------------------------
 
-def _gb(mb):
+def _gb(mb: float) -> str:
     return f"{mb / 1024:.1f} GB" if mb >= 1024 else f"{mb:.0f} MB"
 
 
-def check_cells(cell_type, cells, nprocs, where, nodes=None, error=CaseError):
+def check_cells(cell_type: str, cells: int, nprocs: int, where: str, nodes: int | None = None,
+                error: type[XfcError] = CaseError) -> Estimate:
     """Raise ``error`` (one line, exit code 2) when ``cells`` cells cannot fit; returns the
     :class:`Estimate`.  ``where``: the start of the message (file and key)."""
     est = estimate(cell_type, cells, nprocs, nodes)
@@ -216,7 +229,7 @@ def check_cells(cell_type, cells, nprocs, where, nodes=None, error=CaseError):
     return est
 
 
-def check_case(case, comm=None):
+def check_case(case: Case, comm: MPI.Comm | PETSc.Comm | None = None) -> Estimate | None:
     """Check a case whose mesh is a generated rectangle from its spec alone, before the
     rectangle is built (a mesh file is checked once read: see the module docstring).
     Collective: every process computes and raises the same."""
@@ -227,13 +240,14 @@ def check_case(case, comm=None):
     return check_cells(size[0], size[1], nprocs, f"{case.source}: mesh.rectangle")
 
 
-def current_nprocs():
+def current_nprocs() -> int:
+    """Number of processes of the run (PETSc's world)."""
     from xfemcontact._petsc import PETSc
 
     return PETSc.COMM_WORLD.size
 
 
-def summary():
+def summary() -> dict[str, Any] | None:
     """The last check's estimate and limit (results.json ``resources``), or None."""
     if not LAST:
         return None

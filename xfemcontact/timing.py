@@ -10,20 +10,27 @@ The peak of a phase is the first phase-end peak that exceeds the previous one.
 PETSc event ``XFC:output:plots``, wall time in :data:`STEPS`), for the
 "where the time goes" figures of the bench.
 """
+from __future__ import annotations
+
 import time
 from contextlib import contextmanager
+from typing import TYPE_CHECKING, Any, Iterator
 
 from xfemcontact._petsc import PETSc
 
-TIMINGS = {}
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+#: seconds spent in each phase, by name
+TIMINGS: dict[str, float] = {}
 #: seconds spent in the parts of phases (``step``), by name
-STEPS = {}
+STEPS: dict[str, float] = {}
 #: memory at the end of each phase (the last time it ended): name -> (rss MB, peak MB)
-MEMORY = {}
-_EVENTS = {}
+MEMORY: dict[str, tuple[float, float]] = {}
+_EVENTS: dict[str, PETSc.Log.Event] = {}
 
 
-def event(name):
+def event(name: str) -> PETSc.Log.Event:
     """Return (creating once) the PETSc log event ``XFC:name``."""
     if name not in _EVENTS:
         _EVENTS[name] = PETSc.Log.Event(f"XFC:{name}")
@@ -31,7 +38,8 @@ def event(name):
 
 
 @contextmanager
-def phase(name):
+def phase(name: str) -> Iterator[None]:
+    """Time a phase (see the module docstring)."""
     ev = event(name)
     ev.begin()
     t0 = time.perf_counter()
@@ -44,7 +52,7 @@ def phase(name):
 
 
 @contextmanager
-def step(name):
+def step(name: str) -> Iterator[None]:
     """Time a part of a phase (see the module docstring)."""
     ev = event(name)
     ev.begin()
@@ -56,16 +64,17 @@ def step(name):
         ev.end()
 
 
-def reset():
+def reset() -> None:
     TIMINGS.clear()
     STEPS.clear()
     MEMORY.clear()
 
 
-def memory_now():
+def memory_now() -> tuple[float, float]:
     """``(rss, peak)``: this process's resident and peak resident memory, MB
     (``VmRSS`` and ``VmHWM`` of /proc/self/status; the peak from getrusage elsewhere)."""
-    rss = peak = None
+    rss: float | None = None
+    peak: float | None = None
     try:
         with open("/proc/self/status") as f:
             for line in f:
@@ -82,7 +91,7 @@ def memory_now():
     return (round(rss if rss is not None else peak, 1), round(peak, 1))
 
 
-def phase_memory(comm):
+def phase_memory(comm: PETSc.Comm) -> dict[str, dict[str, list[float | None]]]:
     """Memory at the end of every phase that ran, for every process:
     ``{phase: {"rss_mb": [per process], "peak_mb": [per process]}}`` (collective)."""
     mpi = comm.tompi4py()
@@ -98,15 +107,15 @@ SOLVER_EVENTS = ("MatLUFactorSym", "MatLUFactorNum", "MatCholFctrSym", "MatCholF
                  "MatSolve", "SNESFunctionEval", "SNESJacobianEval", "MatAssemblyEnd")
 
 
-def start_logging():
+def start_logging() -> None:
     """Turn PETSc's event logging on (cheap) so that solver phases can be reported."""
     PETSc.Log.begin()
 
 
-def solver_events(comm):
+def solver_events(comm: PETSc.Comm) -> dict[str, dict[str, Any]]:
     """Count and wall time (max over processes, s) of :data:`SOLVER_EVENTS` that ran."""
     mpi = comm.tompi4py()
-    out = {}
+    out: dict[str, dict[str, Any]] = {}
     for name in SOLVER_EVENTS:
         info = PETSc.Log.Event(name).getPerfInfo()
         t = mpi.allreduce(info["time"], op=_mpi_max())
@@ -115,12 +124,12 @@ def solver_events(comm):
     return out
 
 
-def peak_memory_mb(comm):
+def peak_memory_mb(comm: PETSc.Comm) -> list[float]:
     """Peak resident memory of every process, MB (VmHWM, as the phases')."""
     return comm.tompi4py().allgather(memory_now()[1])
 
 
-def release_heap():
+def release_heap() -> None:
     """Give the memory freed by the set-up's temporaries back to the system: the
     factorisation that follows then raises the peak from a lower floor.  Collective.
 
@@ -149,7 +158,7 @@ def release_heap():
         pass
 
 
-def _mpi_max():
+def _mpi_max() -> MPI.Op:
     from mpi4py import MPI
 
     return MPI.MAX

@@ -10,12 +10,27 @@ A *batch* is a set of cells sharing a dof layout:
 Element dofs are blocked by component (see :mod:`xfemcontact.fem.elasticity`).
 Work is chunked so that element matrices of at most ``CHUNK`` cells exist at once.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from xfemcontact.fem import elasticity
 from xfemcontact.fem.elements import affine_cells, physical_gradients
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+    from petsc4py import PETSc
+
+    from xfemcontact.dofs.layout import DofLayout
+    from xfemcontact.fem.elements import Element
+    from xfemcontact.mesh.plex import LocalMesh
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
 
 CHUNK = 16384
 
@@ -24,26 +39,27 @@ CHUNK = 16384
 class Batch:
     """Cells assembled together: their local and global dof indices ``(ne, nd)``."""
 
-    cells: np.ndarray     # (ne,) local cell indices
-    local: np.ndarray     # (ne, nd) indices into a local array (absent -> layout.dummy)
-    glob: np.ndarray      # (ne, nd) global rows/columns (-1: constrained or absent)
+    cells: IntArray       # (ne,) local cell indices
+    local: IntArray       # (ne, nd) indices into a local array (absent -> layout.dummy)
+    glob: IntArray        # (ne, nd) global rows/columns (-1: constrained or absent)
 
-    def __len__(self):
+    def __len__(self) -> int:
         return len(self.cells)
 
 
-def _blocked(arr2, nodes):
+def _blocked(arr2: IntArray, nodes: IntArray) -> IntArray:
     """``(ne, 2 nn)`` component-blocked indices from per-node ``arr2 (n, 2)``."""
     return np.concatenate([arr2[nodes, 0], arr2[nodes, 1]], axis=1)
 
 
-def plain_batch(mesh, layout, cells):
+def plain_batch(mesh: LocalMesh, layout: DofLayout, cells: IntArray) -> Batch:
+    """Batch of plain cells: functions N_a, dofs (DX.., DY..)."""
     nodes = mesh.cell_nodes[cells]
     loc = _blocked(layout.u_local, nodes)
     return Batch(cells, loc, _blocked(layout.u_global, nodes))
 
 
-def enriched_batch(mesh, layout, cells):
+def enriched_batch(mesh: LocalMesh, layout: DofLayout, cells: IntArray) -> Batch:
     """Batch of cells with functions (N_a, psi_a N_a): dofs (DX.., H1X.., DY.., H1Y..)."""
     nodes = mesh.cell_nodes[cells]
     hl = np.where(layout.h_local >= 0, layout.h_local, layout.dummy)
@@ -57,7 +73,7 @@ def enriched_batch(mesh, layout, cells):
 class PlainStiffness:
     """Stiffness of plain cells of one element type and material."""
 
-    def __init__(self, el, D):
+    def __init__(self, el: Element, D: FloatArray) -> None:
         self.el = el
         self.C = elasticity.tensor(D)
         # exact rules for affine cells; the same rule for curved ones
@@ -65,7 +81,7 @@ class PlainStiffness:
         self.q_gen, self.wq_gen = el.quadrature(4)
         self.basis = elasticity.affine_basis(elasticity.reference_products(el.dshape(self.q), self.wq), self.C)
 
-    def __call__(self, x, aff=None):
+    def __call__(self, x: FloatArray, aff: BoolArray | None = None) -> FloatArray:
         """Element matrices ``(ne, 2 nn, 2 nn)`` of cells ``x (ne, nn, 2)`` (read-only);
         ``aff``: which cells are affine (:func:`elements.affine_cells`) if known."""
         el = self.el
@@ -85,13 +101,13 @@ class PlainStiffness:
         return K
 
 
-def enriched_gradients(G_std, psi):
+def enriched_gradients(G_std: FloatArray, psi: FloatArray) -> FloatArray:
     """Gradients ``(ne, nq, 2 nn, 2)`` of (N_a, psi_a N_a) from those of N_a,
     ``G_std (ne, nq, nn, 2)``, and Heaviside weights ``psi (ne, nq, nn)``."""
     return np.concatenate([G_std, psi[..., None] * G_std], axis=2)
 
 
-def add_matrices(A, batch, K, rows=slice(None)):
+def add_matrices(A: PETSc.Mat, batch: Batch, K: FloatArray, rows: slice = slice(None)) -> None:
     """``A += K`` for the cells ``rows`` of ``batch`` (ADD_VALUES, negatives ignored)."""
     from xfemcontact._petsc import PETSc
 
@@ -102,7 +118,8 @@ def add_matrices(A, batch, K, rows=slice(None)):
     A.setValuesRCV(g, g, np.ascontiguousarray(K), addv=PETSc.InsertMode.ADD_VALUES)
 
 
-def add_lift(r_local, batch, K, x_bc, rows=slice(None)):
+def add_lift(r_local: FloatArray, batch: Batch, K: FloatArray, x_bc: FloatArray,
+             rows: slice = slice(None)) -> None:
     """Accumulate ``K_e @ x_bc,e`` (imposed values) into the local array ``r_local``."""
     loc = batch.local[rows]
     xe = x_bc[loc]
@@ -112,7 +129,8 @@ def add_lift(r_local, batch, K, x_bc, rows=slice(None)):
         np.add.at(r_local, loc[active], fe)
 
 
-def assemble_plain(mesh, batch, stiffness, A, r_local, x_bc):
+def assemble_plain(mesh: LocalMesh, batch: Batch, stiffness: PlainStiffness, A: PETSc.Mat,
+                   r_local: FloatArray, x_bc: FloatArray) -> None:
     """Add the stiffness of a plain batch to ``A`` and its Dirichlet lift to ``r_local``."""
     x = mesh.x
     nodes = mesh.cell_nodes

@@ -11,13 +11,28 @@ same component-blocked element dofs as the bulk.  Edges cut by the interface are
 integrated on each side (their Heaviside dofs get the other side's share): the
 caller passes the interface's edge splitter for that.
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Callable, Iterable
+
 import numpy as np
 
 from xfemcontact.fem.elements import Seg3
 from xfemcontact.fem.quadrature import gauss_segment
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
 
-def imposed_values(mesh, case_dirichlet, group_nodes):
+    from xfemcontact.case.load import BodyForce, Dirichlet, Traction
+    from xfemcontact.mesh.plex import LocalMesh
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+
+
+def imposed_values(mesh: LocalMesh, case_dirichlet: Iterable[Dirichlet],
+                   group_nodes: Callable[[str], IntArray]) -> tuple[BoolArray, FloatArray]:
     """Imposed components at local nodes.
 
     Returns ``(fixed (n, 2) bool, values (n, 2))`` for DX, DY; later conditions
@@ -35,7 +50,7 @@ def imposed_values(mesh, case_dirichlet, group_nodes):
     return fixed, values
 
 
-def edge_geometry(xe, s):
+def edge_geometry(xe: FloatArray, s: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Points ``(k, nq, 2)``, length elements ``(k, nq)`` and outward unit normals
     ``(k, nq, 2)`` of SEG3 edges ``xe (k, 3, 2)`` oriented with their cell
     (counter-clockwise), at reference abscissae ``s (nq,)``."""
@@ -47,15 +62,18 @@ def edge_geometry(xe, s):
     return pts, ds, normal
 
 
-def traction_vectors(spec, pts, normal):
+def traction_vectors(spec: Traction, pts: FloatArray, normal: FloatArray) -> FloatArray:
     """Traction ``(k, nq, 2)`` in N/m of a traction spec at points ``pts``."""
     x, y = pts[..., 0], pts[..., 1]
     if spec.pressure is not None:
         return -spec.pressure(x=x, y=y)[..., None] * normal
-    return np.stack([spec.force["FX"](x=x, y=y), spec.force["FY"](x=x, y=y)], axis=-1)
+    force = spec.force
+    assert force is not None                 # a traction gives a force or a pressure
+    return np.stack([force["FX"](x=x, y=y), force["FY"](x=x, y=y)], axis=-1)
 
 
-def edge_forces(xe, spec, s_range=(-1.0, 1.0), nq=4):
+def edge_forces(xe: FloatArray, spec: Traction,
+                s_range: tuple[float | FloatArray, float | FloatArray] = (-1.0, 1.0), nq: int = 4) -> FloatArray:
     """Nodal forces ``(k, 2, 3)`` (component, edge node) of a traction on edges
     ``xe (k, 3, 2)``, integrated over the reference part ``s_range`` of each edge
     (arrays allowed, for edges split by the interface)."""
@@ -74,7 +92,7 @@ def edge_forces(xe, spec, s_range=(-1.0, 1.0), nq=4):
     return np.einsum("kq,kqi,kqa->kia", w, t, N)
 
 
-def body_forces(G_values, w, pts, body):
+def body_forces(G_values: FloatArray, w: FloatArray, pts: FloatArray, body: BodyForce) -> FloatArray:
     """Nodal forces ``(ne, 2, nf)`` of body force ``body`` at points ``pts (ne, nq, 2)``
     for functions with values ``G_values (ne, nq, nf)`` and weights ``w (ne, nq)``."""
     x, y = pts[..., 0], pts[..., 1]

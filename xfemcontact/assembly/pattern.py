@@ -18,10 +18,26 @@ Points outside this process's chart (merged multipliers held elsewhere) are
 "remote points": they are appended after the local nodes with their owner rank,
 global offset and number of free dofs, and their rows travel by MPI to the owner.
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, Sequence
+
 import numpy as np
 import scipy.sparse as sp
 
 from xfemcontact._petsc import PETSc
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike, NDArray
+
+    from xfemcontact.dofs.layout import DofLayout
+    from xfemcontact.mesh.plex import LocalMesh
+
+    IntArray = NDArray[np.int64]
+    #: remote points: (first global dof, number of free dofs, owner rank), each (r,)
+    Remote = tuple[IntArray, IntArray, IntArray]
+    #: a scipy.sparse matrix (SciPy has no type information here)
+    Sparse = Any
 
 
 class PointSpace:
@@ -31,7 +47,7 @@ class PointSpace:
     ``nfree``: number of free (unconstrained) dofs, ``owner``: owning rank.
     """
 
-    def __init__(self, layout, remote=None):
+    def __init__(self, layout: DofLayout, remote: Remote | None = None) -> None:
         mesh = layout.mesh
         glob = np.c_[layout.u_global, layout.h_global, layout.lag_global]
         nfree = (glob >= 0).sum(axis=1)
@@ -43,20 +59,25 @@ class PointSpace:
             first = np.r_[first, remote[0]]
             nfree = np.r_[nfree, remote[1]]
             owner = np.r_[owner, remote[2]]
-        self.first, self.nfree, self.owner = first, nfree, owner
+        self.first: IntArray = first
+        self.nfree: IntArray = nfree
+        self.owner: IntArray = owner
 
 
-def _ghost_owners(mesh):
+def _ghost_owners(mesh: LocalMesh) -> IntArray:
     """Owner rank of every local node that this process does not own."""
     if mesh.comm.size == 1:
         return np.zeros(0, dtype=np.int64)
-    _, leaves, remote = mesh.point_sf.getGraph()
+    sf = mesh.point_sf
+    assert sf is not None                    # several processes
+    _, leaves, remote = sf.getGraph()
     owner_of_point = np.full(mesh.chart[1], mesh.comm.rank, dtype=np.int64)
     owner_of_point[np.asarray(leaves)] = np.asarray(remote)[:, 0]
     return owner_of_point[mesh.node_points[~mesh.node_owned]]
 
 
-def create_matrix(layout, blocks, remote=None, symmetric=False):
+def create_matrix(layout: DofLayout, blocks: Sequence[ArrayLike], remote: Remote | None = None,
+                  symmetric: bool = False) -> PETSc.Mat:
     """A preallocated matrix for the element couplings ``blocks``: AIJ, or SBAIJ
     (upper triangle) when ``symmetric``.
 
@@ -80,7 +101,7 @@ def create_matrix(layout, blocks, remote=None, symmetric=False):
     return A
 
 
-def _incidence(blocks, npoints):
+def _incidence(blocks: Sequence[ArrayLike], npoints: int) -> Sparse:
     rows, cols = [], []
     start = 0
     for b in blocks:
@@ -102,7 +123,8 @@ def _incidence(blocks, npoints):
     return E
 
 
-def _point_counts(space, blocks, upper=False):
+def _point_counts(space: PointSpace, blocks: Sequence[ArrayLike],
+                  upper: bool = False) -> tuple[IntArray, IntArray]:
     """Per point: free dofs of adjacent points owned like the point (d) or not (o).
 
     ``upper``: only the other points whose dofs come after the point's (the
@@ -130,7 +152,8 @@ def _point_counts(space, blocks, upper=False):
     return d, total - d
 
 
-def _dof_counts(layout, space, d, o, upper=False):
+def _dof_counts(layout: DofLayout, space: PointSpace, d: IntArray, o: IntArray,
+                upper: bool = False) -> tuple[IntArray, IntArray]:
     """Sum counts onto owners and expand them to every owned dof row."""
     mesh = layout.mesh
     comm = mesh.comm
@@ -155,7 +178,8 @@ def _dof_counts(layout, space, d, o, upper=False):
     return d_nnz, o_nnz
 
 
-def _expand(d_nnz, o_nnz, start, count, d, o, upper=False):
+def _expand(d_nnz: IntArray, o_nnz: IntArray, start: IntArray, count: IntArray, d: IntArray, o: IntArray,
+            upper: bool = False) -> None:
     """Point counts onto each of the point's ``count`` dof rows from ``start``; with
     ``upper`` row ``i`` of a point also holds its own dofs ``i ..``."""
     if len(start) == 0:
@@ -168,14 +192,14 @@ def _expand(d_nnz, o_nnz, start, count, d, o, upper=False):
         d_nnz[rows] += np.repeat(count, count) - i
 
 
-def _ranges(count):
+def _ranges(count: IntArray) -> IntArray:
     """Concatenated aranges ``[0..count[0]), [0..count[1]) ...``."""
     total = int(count.sum())
     offsets = np.repeat(np.cumsum(count) - count, count)
     return np.arange(total) - offsets
 
 
-def _reduce_to_owners(mesh, d, o):
+def _reduce_to_owners(mesh: LocalMesh, d: IntArray, o: IntArray) -> tuple[IntArray, IntArray]:
     """Add ghost copies' counts onto the owners' counts (point SF, MPI_SUM).
 
     A ghost row is seen by the owner with a different diagonal/off-diagonal
@@ -184,6 +208,7 @@ def _reduce_to_owners(mesh, d, o):
     from mpi4py import MPI
 
     sf = mesh.point_sf
+    assert sf is not None                    # several processes
     nchart = mesh.chart[1]
     leaf = np.zeros((nchart, 2), dtype=np.int64)
     leaf[mesh.node_points[~mesh.node_owned]] = np.c_[d, o][~mesh.node_owned]
@@ -198,12 +223,14 @@ def _reduce_to_owners(mesh, d, o):
     return d + extra, o + extra
 
 
-def _send_remote_rows(comm, space, d, o):
-    """Send rows of remote points to their owners; receive ours."""
+def _send_remote_rows(comm: PETSc.Comm, space: PointSpace, d: IntArray,
+                      o: IntArray) -> list[Sequence[IntArray]]:
+    """Send rows of remote points to their owners; receive ours: ``(first, nfree, d, o)``
+    of the remote points of another process that are ours."""
     mpi = comm.tompi4py()
     nl = space.n_local
     owner = space.owner[nl:]
-    out = [[] for _ in range(mpi.size)]
+    out: list[Sequence[IntArray]] = [[] for _ in range(mpi.size)]
     for r in np.unique(owner):
         k = owner == r
         out[r] = (space.first[nl:][k], space.nfree[nl:][k], d[k] + o[k], d[k] + o[k])

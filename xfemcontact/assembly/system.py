@@ -7,6 +7,10 @@ vector is ``f0 = K_fc u_c - F_ext`` on the free dofs (lift of the imposed
 displacements minus tractions and body forces): the bulk residual is
 ``K x + f0``.
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Iterable
+
 import numpy as np
 
 from xfemcontact._petsc import PETSc
@@ -16,8 +20,21 @@ from xfemcontact.fem.elements import Seg3
 from xfemcontact.xfem import geometry as xgeo
 from xfemcontact.xfem.levelset import edge_crossing
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
 
-def bc_array(layout, fixed, values):
+    from xfemcontact.case.load import BodyForce, Traction
+    from xfemcontact.dofs.layout import DofLayout
+    from xfemcontact.mesh.plex import LocalMesh
+    from xfemcontact.xfem.geometry import Geometry
+    from xfemcontact.xfem.integration import CellPoints
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+
+
+def bc_array(layout: DofLayout, fixed: BoolArray, values: FloatArray) -> FloatArray:
     """Local work array with the imposed values (DX, DY) at constrained dofs."""
     x = layout.local_array()
     for c in range(2):
@@ -26,20 +43,21 @@ def bc_array(layout, fixed, values):
     return x
 
 
-def heaviside_weights(mesh, geo, pts):
+def heaviside_weights(mesh: LocalMesh, geo: Geometry, pts: CellPoints) -> FloatArray:
     """psi_a = H(x_q) - H(x_a) of every node of the cells of ``pts`` (0 if not enriched)."""
     nodes = mesh.cell_nodes[pts.cells]
     psi = pts.side[:, :, None] - geo.node_side[nodes][:, None, :]
     return psi * geo.enriched[nodes][:, None, :]
 
 
-def enriched_gradients(mesh, geo, pts):
+def enriched_gradients(mesh: LocalMesh, geo: Geometry, pts: CellPoints) -> FloatArray:
     """Gradients ``(k, nq, 2 nn, 2)`` of the functions (N_a, psi_a N_a) of enriched cells
     at the points ``pts`` (see :func:`heaviside_weights`)."""
     return bulk.enriched_gradients(pts.dNdx, heaviside_weights(mesh, geo, pts))
 
 
-def assemble_bulk(mesh, geo, layout, D, A, r_local, x_bc):
+def assemble_bulk(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, D: FloatArray, A: PETSc.Mat,
+                  r_local: FloatArray, x_bc: FloatArray) -> None:
     """Bulk stiffness into ``A`` and Dirichlet lift into ``r_local``."""
     el = mesh.element
     plain = geo.plain_cells(mesh) if geo is not None else np.arange(len(mesh.cells))
@@ -55,7 +73,8 @@ def assemble_bulk(mesh, geo, layout, D, A, r_local, x_bc):
         bulk.add_lift(r_local, batch, K, x_bc)
 
 
-def add_body_forces(mesh, geo, layout, body, f_local):
+def add_body_forces(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, body: BodyForce,
+                    f_local: FloatArray) -> None:
     """Body forces (N/m^3) into the local array ``f_local``."""
     el = mesh.element
     plain = geo.plain_cells(mesh) if geo is not None else np.arange(len(mesh.cells))
@@ -75,7 +94,8 @@ def add_body_forces(mesh, geo, layout, body, f_local):
         np.add.at(f_local, bulk.enriched_batch(mesh, layout, pts.cells).local, fe.reshape(len(pts.cells), fe.shape[1] * fe.shape[2]))
 
 
-def add_tractions(mesh, geo, layout, traction, f_local):
+def add_tractions(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, traction: Iterable[Traction],
+                  f_local: FloatArray) -> None:
     """Surface tractions of the case into ``f_local``, edges split by the interface."""
     for spec in traction:
         for g in spec.groups:
@@ -87,13 +107,14 @@ def add_tractions(mesh, geo, layout, traction, f_local):
             np.add.at(f_local, _edge_dofs(layout, nodes), fe.reshape(len(nodes), fe.shape[1] * fe.shape[2]))
 
 
-def _edge_dofs(layout, nodes):
+def _edge_dofs(layout: DofLayout, nodes: IntArray) -> IntArray:
     hl = np.where(layout.h_local >= 0, layout.h_local, layout.dummy)
     return np.concatenate([layout.u_local[nodes, 0], hl[nodes, 0],
                            layout.u_local[nodes, 1], hl[nodes, 1]], axis=1)
 
 
-def _edge_forces_by_side(mesh, geo, nodes, xe, spec):
+def _edge_forces_by_side(mesh: LocalMesh, geo: Geometry | None, nodes: IntArray, xe: FloatArray,
+                         spec: Traction) -> FloatArray:
     """Forces on functions (N_a, psi_a N_a) of edge nodes: ``(k, 2, 6)``.
 
     An edge the interface crosses is split where its cell is cut (the same
@@ -106,10 +127,11 @@ def _edge_forces_by_side(mesh, geo, nodes, xe, spec):
         return out
     phi = geo.phi[nodes]
     s_cut = edge_crossing(phi[:, 0], phi[:, 1], phi[:, 2])
-    pieces = [(-1.0, np.where(np.isnan(s_cut), 1.0, s_cut)), (np.where(np.isnan(s_cut), 1.0, s_cut), 1.0)]
-    for a, b in pieces:
-        a = np.broadcast_to(a, (k,))
-        b = np.broadcast_to(b, (k,))
+    cut = np.where(np.isnan(s_cut), 1.0, s_cut)
+    pieces: list[tuple[float | FloatArray, float | FloatArray]] = [(-1.0, cut), (cut, 1.0)]
+    for start, stop in pieces:
+        a = np.broadcast_to(start, (k,))
+        b = np.broadcast_to(stop, (k,))
         live = b > a
         if not live.any():
             continue
@@ -124,7 +146,7 @@ def _edge_forces_by_side(mesh, geo, nodes, xe, spec):
     return out
 
 
-def local_to_global(layout, arr):
+def local_to_global(layout: DofLayout, arr: FloatArray) -> PETSc.Vec:
     """Global Vec summing the local work array ``arr`` over processes (dummy dropped).
 
     On one process the global dofs are the free local dofs in order
@@ -142,7 +164,7 @@ def local_to_global(layout, arr):
     return g
 
 
-def global_to_local(layout, g, x_bc):
+def global_to_local(layout: DofLayout, g: PETSc.Vec, x_bc: FloatArray) -> FloatArray:
     """Local work array of global vector ``g`` with imposed values from ``x_bc``."""
     out = x_bc.copy()
     free = layout.free_local

@@ -13,18 +13,43 @@ The operator holds no contact state: statuses and thresholds are a
 :class:`~xfemcontact.contact.problem.PointState` passed to each call, owned by
 the :class:`~xfemcontact.contact.gauss_problem.GaussContactProblem`.
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, Callable
+
 import numpy as np
 
 from xfemcontact._petsc import PETSc
 from xfemcontact.contact import gauss_point as claw
 from xfemcontact.xfem import integration
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from xfemcontact.contact.gauss_point import PointLaw
+    from xfemcontact.contact.problem import PointState
+    from xfemcontact.contact.space import MultiplierSpace
+    from xfemcontact.dofs.layout import DofLayout
+    from xfemcontact.mesh.plex import LocalMesh
+    from xfemcontact.xfem.geometry import Geometry
+    from xfemcontact.xfem.integration import SegmentPoints
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    #: a law's values at the segment ends: ``values(ve, phi, end)`` (see point_values)
+    EndValues = Callable[[FloatArray, FloatArray, int], dict[str, FloatArray]]
+
 
 class InterfaceOperator:
-    def __init__(self, mesh, geo, layout, space, rep_index, law, pts):
+    """The interface terms of the segments of every local cut cell (see the module
+    documentation)."""
+
+    def __init__(self, mesh: LocalMesh, geo: Geometry, layout: DofLayout, space: MultiplierSpace,
+                 rep_index: IntArray, law: PointLaw | None, pts: SegmentPoints) -> None:
         """``pts``: :class:`integration.SegmentPoints` of ``geo.segments()``; ``rep_index``
         ``(k, m)``: global LAGS_C index of the carriers of each segment cell (-1 pad);
-        ``law``: the :class:`~xfemcontact.contact.gauss_point.PointLaw`."""
+        ``law``: the :class:`~xfemcontact.contact.gauss_point.PointLaw` (None when the
+        conditions are written at the dofs: no point terms)."""
         self.mesh, self.layout, self.law = mesh, layout, law
         el = mesh.element
         segs = geo.segments()
@@ -43,7 +68,7 @@ class InterfaceOperator:
         self._scatter_setup()
 
     # -- gathering ----------------------------------------------------------
-    def _scatter_setup(self):
+    def _scatter_setup(self) -> None:
         g = self.gidx
         uniq = np.unique(g[g >= 0]).astype(PETSc.IntType)
         self.uniq = uniq
@@ -53,7 +78,7 @@ class InterfaceOperator:
         iset = PETSc.IS().createGeneral(uniq, comm=PETSc.COMM_SELF)
         self.scatter = PETSc.Scatter().create(self.xg, iset, self.seq, None)
 
-    def element_values(self, x):
+    def element_values(self, x: PETSc.Vec) -> FloatArray:
         """``(k, nd)`` values of the interface dofs of ``x`` (global Vec)."""
         self.scatter.scatter(x, self.seq, addv=PETSc.InsertMode.INSERT_VALUES,
                              mode=PETSc.ScatterMode.FORWARD)
@@ -61,7 +86,7 @@ class InterfaceOperator:
         return vals[self.pos]
 
     # -- kinematics ---------------------------------------------------------
-    def point_fields(self, ve):
+    def point_fields(self, ve: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
         """Jump components, gap, tangential jump, LAGS_C, LAGS_F1 at the Gauss points."""
         nn, nv = self.nn, self.nv
         hx, hy = ve[:, :nn], ve[:, nn:2 * nn]
@@ -75,7 +100,7 @@ class InterfaceOperator:
         Lam = np.einsum("kqa,ka->kq", self.phi, Lam_v)
         return g, ut, lam, Lam
 
-    def _operators(self):
+    def _operators(self) -> tuple[FloatArray, FloatArray]:
         """``a_n, a_t (k, ng, 2 nn)``: d g / d h and d ut / d h."""
         N2 = 2.0 * self.N * self.enr[:, None, :]
         n, t = self.pts.normal, self.pts.tangent
@@ -84,17 +109,20 @@ class InterfaceOperator:
         return a_n, a_t
 
     # -- residual and tangent -------------------------------------------------
-    def terms(self, x, state):
+    def terms(self, x: PETSc.Vec, state: PointState) -> dict[str, FloatArray]:
         """Point terms of the law at ``x`` for the statuses and thresholds of ``state``."""
+        law = self.law
+        assert law is not None                   # point terms: a Gauss-point law
         g, ut, lam, Lam = self.point_fields(self.element_values(x))
         s, held = state.s, state.held
         if state.unbounded:
             # held in stick, the solution does not depend on s; mu s = -1 Pa makes
             # LAGS_F1 the tangential traction in Pa meanwhile
-            s, held = np.full(s.shape, -1.0 / self.law.mu), np.zeros(s.shape)
-        return claw.point_terms(self.law, state.chi, s, g, ut, lam, Lam, held)
+            s, held = np.full(s.shape, -1.0 / law.mu), np.zeros(s.shape)
+        return claw.point_terms(law, state.chi, s, g, ut, lam, Lam, held)
 
-    def add_residual(self, x, f, state):
+    def add_residual(self, x: PETSc.Vec, f: PETSc.Vec, state: PointState) -> None:
+        """``f += `` the interface residual at ``x`` (ADD_VALUES, then assembled)."""
         t = self.terms(x, state)
         w = self.pts.w
         a_n, a_t = self._operators()
@@ -107,7 +135,7 @@ class InterfaceOperator:
         f.assemblyBegin()
         f.assemblyEnd()
 
-    def element_matrices(self, x, state):
+    def element_matrices(self, x: PETSc.Vec, state: PointState) -> FloatArray:
         """Interface element tangents ``(k, nd, nd)`` at ``x``."""
         t = self.terms(x, state)
         w = self.pts.w
@@ -129,14 +157,14 @@ class InterfaceOperator:
         K[:, nh + nv:, nh + nv:] = np.einsum("kq,kqa,kqb->kab", w * t["LL"], phi, phi)
         return K
 
-    def add_matrices(self, J, K):
+    def add_matrices(self, J: PETSc.Mat, K: FloatArray) -> None:
         """``J += K`` on the interface elements (ADD_VALUES)."""
         g = self.gidx.astype(PETSc.IntType)
         if len(g) == 0:           # petsc4py divides by the batch size
             return
         J.setValuesRCV(g, g, K, addv=PETSc.InsertMode.ADD_VALUES)
 
-    def add_product(self, K, x, f, scale=1.0):
+    def add_product(self, K: FloatArray, x: PETSc.Vec, f: PETSc.Vec, scale: float = 1.0) -> None:
         """``f += scale * K x`` for element matrices ``K`` of the interface elements."""
         ve = self.element_values(x)
         r = scale * np.einsum("kij,kj->ki", K, ve)
@@ -146,7 +174,7 @@ class InterfaceOperator:
         f.assemblyEnd()
 
     # -- results at the interface points ----------------------------------------
-    def point_values(self, x, values):
+    def point_values(self, x: PETSc.Vec, values: EndValues) -> dict[str, NDArray[Any]]:
         """Values at the ends (P1, P2) of every segment: where the interface crosses
         cell edges (code_aster's NFISSU points), one entry per point and cell.
 
@@ -164,8 +192,8 @@ class InterfaceOperator:
         ve = self.element_values(x)
         nn = self.nn
         xc = mesh.x[mesh.cell_nodes[segs.cells]]
-        out = {k: [] for k in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding",
-                               "cell", "end")}
+        out: dict[str, list[NDArray[Any]]] = {k: [] for k in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip",
+                                                             "contact", "sliding", "cell", "end")}
         X = el.map_points(xc, segs.nodes)                          # physical P1, P2, P3
         for end, s in ((0, -1.0), (1, 1.0)):
             xi = segs.nodes[:, end]

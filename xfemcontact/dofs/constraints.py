@@ -7,18 +7,36 @@ Heaviside dofs of the same components are fixed to zero when an edge of the
 group through the node touches the interface (or when the group is a group of
 nodes).  A law with ``zero_jump`` (bonded) fixes every Heaviside dof.
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Callable, Iterable
+
 import numpy as np
 
 from xfemcontact.mesh.plex import NODE, reduce_nodes
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
 
-def _touching_edges(mesh, phi, edges):
+    from xfemcontact.case.formula import Formula
+    from xfemcontact.case.load import Case
+    from xfemcontact.contact.laws.base import InterfaceLaw
+    from xfemcontact.mesh.plex import LocalMesh
+    from xfemcontact.xfem.geometry import Geometry
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+
+
+def _touching_edges(mesh: LocalMesh, phi: FloatArray, edges: IntArray) -> BoolArray:
     """Edges ``(k, 3)`` along which LN is not of one strict sign."""
     p = phi[edges]
     return ~(np.all(p > 0, axis=1) | np.all(p < 0, axis=1))
 
 
-def fixed_components(mesh, case, geo, law, values_fn):
+def fixed_components(mesh: LocalMesh, case: Case, geo: Geometry | None, law: InterfaceLaw | None,
+                     values_fn: Callable[[IntArray, Formula], FloatArray]) -> tuple[BoolArray, FloatArray]:
     """Imposed components ``(n, 4)`` (DX, DY, H1X, H1Y) and DX/DY values ``(n, 2)``.
 
     ``law``: the interface law (None without interface); ``values_fn(nodes,
@@ -42,7 +60,7 @@ def fixed_components(mesh, case, geo, law, values_fn):
     return fixed, values
 
 
-def _heaviside_nodes(mesh, geo, groups):
+def _heaviside_nodes(mesh: LocalMesh, geo: Geometry, groups: Iterable[str]) -> IntArray:
     """Enriched nodes of ``groups`` where the interface reaches the group."""
     flag = np.zeros(len(mesh.x), dtype=np.int64)
     for g in groups:

@@ -21,9 +21,22 @@ so every KSP/PC sees the reduced, symmetric operator.
 Index arrays use -1 for "absent"; global arrays also use -1 for constrained
 dofs (PETSc ignores negative indices in MatSetValues/VecSetValues).
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from xfemcontact._petsc import PETSc
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike, NDArray
+
+    from xfemcontact.mesh.plex import LocalMesh
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
 
 FIELDS = ("u", "h", "LAGS_C", "LAGS_F1")
 COMPONENTS = {"u": ("DX", "DY"), "h": ("H1X", "H1Y"), "LAGS_C": ("LAGS_C",), "LAGS_F1": ("LAGS_F1",)}
@@ -46,29 +59,33 @@ class DofLayout:
     All three must agree on points shared by several processes.
     """
 
-    def __init__(self, mesh, enriched, multiplier, fixed):
+    def __init__(self, mesh: LocalMesh, enriched: ArrayLike, multiplier: ArrayLike,
+                 fixed: ArrayLike) -> None:
         n = len(mesh.x)
         self.mesh = mesh
-        self.enriched = np.asarray(enriched, bool)
-        self.multiplier = np.asarray(multiplier, bool)
-        self.fixed = np.asarray(fixed, bool) & np.c_[np.ones((n, 2), bool), self.enriched, self.enriched]
-        self._counts = None        # free dofs by kind, summed over processes on first use
-        self._scatter = None       # see scatter
-        self.section = self._build_section()
-        dm = mesh.dm
-        dm.setSection(self.section)
-        self.global_section = dm.getGlobalSection()
-        lg = dm.getLGMap().getIndices() if self.section.getStorageSize() else np.zeros(0, PETSc.IntType)
+        self.enriched: BoolArray = np.asarray(enriched, bool)
+        self.multiplier: BoolArray = np.asarray(multiplier, bool)
+        self.fixed: BoolArray = np.asarray(fixed, bool) & np.c_[np.ones((n, 2), bool), self.enriched, self.enriched]
+        self._counts: dict[str, int] | None = None    # free dofs by kind, summed over processes on first use
+        self._scatter: tuple[PETSc.Scatter, PETSc.Vec] | None = None     # see scatter
+        section = self._build_section()
+        dm = mesh.plex
+        dm.setSection(section)
+        global_section = dm.getGlobalSection()
+        #: the PetscSections of the dofs (None after release_setup)
+        self.section: PETSc.Section | None = section
+        self.global_section: PETSc.Section | None = global_section
+        lg = dm.getLGMap().getIndices() if section.getStorageSize() else np.zeros(0, PETSc.IntType)
         #: global index of every local dof (-1 constrained)
-        self.lg = np.asarray(lg, dtype=PETSc.IntType)
-        self._index_arrays(self.lg)
+        self.lg: IntArray = np.asarray(lg, dtype=PETSc.IntType)
+        self._index_arrays(self.lg, section, global_section)
 
     # -- section ------------------------------------------------------------
-    def _dofs_per_field(self):
+    def _dofs_per_field(self) -> IntArray:
         n = len(self.enriched)
         return np.c_[np.full(n, 2), 2 * self.enriched, self.multiplier, self.multiplier].astype(np.int64)
 
-    def _build_section(self):
+    def _build_section(self) -> PETSc.Section:
         """A PetscSection with one field holding every dof of a node (a field per kind
         cost one more section over the whole chart each).  Within a point the dofs
         keep the order (DX, DY, [H1X, H1Y], [LAGS_C, LAGS_F1]); the constraints are the
@@ -77,7 +94,7 @@ class DofLayout:
         mesh = self.mesh
         sec = PETSc.Section().create(comm=mesh.comm)
         pts = mesh.node_points
-        sec.setChart(*mesh.dm.getChart())
+        sec.setChart(*mesh.plex.getChart())
         per_field = self._dofs_per_field()
         ncons = self.fixed.sum(axis=1)
         points = pts.tolist()
@@ -92,17 +109,17 @@ class DofLayout:
         return sec
 
     # -- index arrays -------------------------------------------------------
-    def _index_arrays(self, lg):
+    def _index_arrays(self, lg: IntArray, section: PETSc.Section, global_section: PETSc.Section) -> None:
         mesh = self.mesh
-        pstart, pend = mesh.dm.getChart()
+        pstart, pend = mesh.plex.getChart()
         dof_of_point = np.zeros(pend - pstart, dtype=np.int64)
         per_field = self._dofs_per_field()
         dof_of_point[mesh.node_points] = per_field.sum(axis=1)
         off_of_point = np.concatenate([[0], np.cumsum(dof_of_point)[:-1]])
-        off = off_of_point[mesh.node_points]
+        off: IntArray = off_of_point[mesh.node_points]
         if len(off):
             probe = int(mesh.node_points[-1])
-            assert self.section.getOffset(probe) == off[-1], "unexpected PetscSection layout"
+            assert section.getOffset(probe) == off[-1], "unexpected PetscSection layout"
         self.local_size = int(dof_of_point.sum())
         #: index of an extra slot, always zero, that absent dofs of a batch point to;
         #: local work arrays have ``local_size + 1`` entries
@@ -112,25 +129,27 @@ class DofLayout:
         e = self.enriched
         off = off.astype(it)
         two = np.arange(2, dtype=it)
-        self.u_local = off[:, None] + two
-        self.h_local = np.where(e[:, None], off[:, None] + 2 + two, it(-1))
-        self._derived = {}         # the arrays below, computed on first use (see release_setup)
+        #: ``(n, 2)`` local DX, DY dof of every node
+        self.u_local: IntArray = off[:, None] + two
+        #: ``(n, 2)`` local H1X, H1Y dof of every node (-1 where not enriched)
+        self.h_local: IntArray = np.where(e[:, None], off[:, None] + 2 + two, it(-1))
+        self._derived: dict[str, IntArray] = {}     # the arrays below, computed on first use (see release_setup)
         constrained = np.zeros(self.local_size, dtype=bool)
         constrained[self.u_local[self.fixed[:, :2]]] = True
         hfix = self.h_local[self.fixed[:, 2:]]
         constrained[hfix[hfix >= 0]] = True
         #: local indices of the free (unconstrained) dofs
-        self.free_local = np.nonzero(~constrained)[0].astype(it)
+        self.free_local: IntArray = np.nonzero(~constrained)[0].astype(it)
         #: True when the global dofs are the free local dofs in order (one process)
         self.identity = bool(mesh.comm.size == 1 and np.array_equal(
             lg[self.free_local], np.arange(len(self.free_local), dtype=it)))
-        self.owned_size = self.global_section.getConstrainedStorageSize()
-        self.global_size = self.mesh.comm.tompi4py().allreduce(self.owned_size)
-        self.ownership_start = self.mesh.comm.tompi4py().exscan(self.owned_size) or 0
+        self.owned_size: int = global_section.getConstrainedStorageSize()
+        self.global_size: int = self.mesh.comm.tompi4py().allreduce(self.owned_size)
+        self.ownership_start: int = self.mesh.comm.tompi4py().exscan(self.owned_size) or 0
 
     # -- derived index arrays (recomputed after release_setup if asked for) ----
     @property
-    def lag_local(self):
+    def lag_local(self) -> IntArray:
         """``(n, 2)`` local LAGS_C, LAGS_F1 dof of every node (-1 where absent)."""
         if "lag_local" not in self._derived:
             it = PETSc.IntType
@@ -139,7 +158,7 @@ class DofLayout:
                                                   it(-1))
         return self._derived["lag_local"]
 
-    def _global(self, name, local):
+    def _global(self, name: str, local: IntArray) -> IntArray:
         if name not in self._derived:
             it, lg = PETSc.IntType, self.lg
             if not len(lg):
@@ -151,34 +170,34 @@ class DofLayout:
         return self._derived[name]
 
     @property
-    def u_global(self):
+    def u_global(self) -> IntArray:
         """``(n, 2)`` global DX, DY dof of every node (-1: constrained)."""
         return self._global("u_global", self.u_local)
 
     @property
-    def h_global(self):
+    def h_global(self) -> IntArray:
         """``(n, 2)`` global H1X, H1Y dof (-1: absent or constrained)."""
         return self._global("h_global", self.h_local)
 
     @property
-    def lag_global(self):
+    def lag_global(self) -> IntArray:
         """``(n, 2)`` global LAGS_C, LAGS_F1 dof (-1: absent)."""
         return self._global("lag_global", self.lag_local)
 
     # -- vectors ------------------------------------------------------------
-    def create_global_vec(self):
+    def create_global_vec(self) -> PETSc.Vec:
         """A global vector (this process's ``owned_size`` free dofs, in global order)."""
         v = PETSc.Vec().create(comm=self.mesh.comm)
         v.setSizes((self.owned_size, self.global_size))
         v.setType(PETSc.Vec.Type.STANDARD)
         return v
 
-    def create_local_vec(self):
+    def create_local_vec(self) -> PETSc.Vec:
         """A sequential vector of this process's dofs (``local_size``), constrained ones included."""
         return PETSc.Vec().createSeq(self.local_size, comm=PETSc.COMM_SELF)
 
     @property
-    def scatter(self):
+    def scatter(self) -> tuple[PETSc.Scatter, PETSc.Vec]:
         """``(Scatter, local Vec)`` from the free local dofs to their global entries (several
         processes only; built on first use): forward with ADD_VALUES sums the shared dofs
         of every process into their owner, reverse with INSERT_VALUES gives every process
@@ -196,7 +215,7 @@ class DofLayout:
             g.destroy()
         return self._scatter
 
-    def release_setup(self):
+    def release_setup(self) -> None:
         """Drop what only the set-up needed, before the factorisation (idempotent): the
         PetscSections, the DMPlex (:meth:`LocalMesh.release_topology`) and the global
         and multiplier index arrays (recomputed if asked for again).  Vectors and
@@ -205,17 +224,17 @@ class DofLayout:
         self._derived.clear()
         self.mesh.release_topology()
 
-    def local_array(self):
+    def local_array(self) -> FloatArray:
         """A zero local work array (``local_size + 1`` entries, the last one the dummy)."""
         return np.zeros(self.local_size + 1)
 
-    def counts(self):
+    def counts(self) -> dict[str, int]:
         """Number of free dofs of each kind over all processes (collective the first time)."""
         if self._counts is None:
             self._counts = self._count_free()
         return dict(self._counts)
 
-    def _count_free(self):
+    def _count_free(self) -> dict[str, int]:
         owned = self.mesh.node_owned
         free = ~self.fixed
         mpi = self.mesh.comm.tompi4py()

@@ -5,10 +5,19 @@ The nodes sit on the "fine grid" of ``(2 nx + 1) x (2 ny + 1)`` positions
 running fastest.  QUAD8 meshes skip the square centres; TRIA6 meshes use them
 as the mid-nodes of the diagonals.
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from xfemcontact.errors import MeshError
 from xfemcontact.mesh.raw import CELL_TYPES, RawMesh
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    IntArray = NDArray[np.int64]
 
 DIAGONALS = ("alternate", "right", "left")
 
@@ -23,7 +32,8 @@ _TRIA6_LEFT = np.array([[(0, 0), (2, 0), (0, 2), (1, 0), (1, 1), (0, 1)],
                         [(2, 0), (2, 2), (0, 2), (2, 1), (1, 2), (1, 1)]])
 
 
-def rectangle(nx, ny, x=(0.0, 10.0), y=(0.0, 10.0), cell="QUAD8", diagonal="alternate"):
+def rectangle(nx: int, ny: int, x: tuple[float, float] = (0.0, 10.0), y: tuple[float, float] = (0.0, 10.0),
+              cell: str = "QUAD8", diagonal: str = "alternate") -> RawMesh:
     """Structured ``nx`` x ``ny`` mesh of the rectangle ``x[0]..x[1]`` x ``y[0]..y[1]`` (m).
 
     ``cell`` is "QUAD8" (8-node serendipity squares, ``nx*ny`` cells,
@@ -67,7 +77,8 @@ def rectangle(nx, ny, x=(0.0, 10.0), y=(0.0, 10.0), cell="QUAD8", diagonal="alte
         source=f"<rectangle {nx}x{ny} {cell}>")
 
 
-def _check_args(nx, ny, x, y, cell, diagonal):
+def _check_args(nx: int, ny: int, x: tuple[float, float], y: tuple[float, float], cell: str,
+                diagonal: str) -> None:
     where = "rectangle"
     for name, n in (("nx", nx), ("ny", ny)):
         if not isinstance(n, (int, np.integer)) or isinstance(n, bool) or n < 1:
@@ -83,7 +94,7 @@ def _check_args(nx, ny, x, y, cell, diagonal):
                         f"(got {diagonal!r})")
 
 
-def _cells(number, nx, ny, cell, diagonal):
+def _cells(number: IntArray, nx: int, ny: int, cell: str, diagonal: str) -> IntArray:
     """Connectivity ``(n_cells, 8|6)``: squares row by row, x fastest, 1 or 2 cells each."""
     j, i = np.meshgrid(np.arange(ny), np.arange(nx), indexing="ij")
     i, j = i.ravel(), j.ravel()                              # (nsq,) square indices
@@ -98,7 +109,7 @@ def _cells(number, nx, ny, cell, diagonal):
     return number[fj, fi].reshape(-1, local.shape[-2])
 
 
-def _boundary_edges(number):
+def _boundary_edges(number: IntArray) -> list[IntArray]:
     """SEG3 rows ``(a, b, mid)`` of the bottom, right, top and left sides, counter-clockwise."""
     sides = (number[0, :], number[:, -1], number[-1, ::-1], number[::-1, 0])
     return [np.c_[s[0:-1:2], s[2::2], s[1::2]] for s in sides]

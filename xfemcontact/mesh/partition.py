@@ -6,14 +6,27 @@ edge) on rank 0, with weights so that cut cells, which carry sub-cell
 quadrature and interface terms, count for their extra work.  Any other PETSc
 partitioner stays available with ``-petscpartitioner_type ptscotch|simple``.
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike, NDArray
+    from petsc4py import PETSc
+
+    from xfemcontact.case.formula import Formula
+    from xfemcontact.mesh.raw import RawMesh
+
+    IntArray = NDArray[np.int64]
 
 #: work of a cut cell relative to a plain one (sub-cells: ~2 x 3 sub-triangles
 #: of 12-25 points, plus the interface terms)
 CUT_CELL_WEIGHT = 8
 
 
-def dual_graph(cell_vertices):
+def dual_graph(cell_vertices: IntArray) -> tuple[IntArray, IntArray]:
     """CSR dual graph (``xadj``, ``adjncy``) of cells sharing an edge.
 
     ``cell_vertices (ne, nv)``: vertex indices of each cell, counter-clockwise.
@@ -35,7 +48,7 @@ def dual_graph(cell_vertices):
     return xadj.astype(np.int64), dst[order].astype(np.int64)
 
 
-def metis_parts(cell_vertices, nparts, weights=None):
+def metis_parts(cell_vertices: IntArray, nparts: int, weights: ArrayLike | None = None) -> IntArray:
     """Part of every cell (``(ne,)`` ints in [0, nparts))."""
     if nparts == 1:
         return np.zeros(len(cell_vertices), dtype=np.int64)
@@ -51,7 +64,7 @@ def metis_parts(cell_vertices, nparts, weights=None):
     return np.asarray(parts, dtype=np.int64)
 
 
-def cut_cell_weights(raw, levelset):
+def cut_cell_weights(raw: RawMesh, levelset: Formula | None) -> IntArray:
     """Cell weights: ``CUT_CELL_WEIGHT`` for cells whose nodes change sign, else 1."""
     if levelset is None:
         return np.ones(len(raw.cells), dtype=np.int64)
@@ -60,8 +73,10 @@ def cut_cell_weights(raw, levelset):
     return np.where(cut, CUT_CELL_WEIGHT, 1).astype(np.int64)
 
 
-def shell_partition(dm, cell_vertices, weights, comm):
-    """Set ``dm``'s partitioner to the METIS partition (computed on rank 0).
+def shell_partition(dm: PETSc.DMPlex, cell_vertices: IntArray, weights: IntArray,
+                    comm: PETSc.Comm) -> tuple[list[int], list[float] | None]:
+    """Set ``dm``'s partitioner to the METIS partition (computed on rank 0, where
+    ``cell_vertices (ne, nv)`` and ``weights (ne,)`` are significant).
 
     Returns the per-process (cells, weight) on every rank.
     """

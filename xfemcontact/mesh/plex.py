@@ -14,8 +14,11 @@ Partitioning: METIS (pymetis, cut cells weighted, see
 :mod:`xfemcontact.mesh.partition`) by default; any PETSc partitioner with
 ``-petscpartitioner_type ptscotch|simple``.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
 from functools import cached_property
+from typing import TYPE_CHECKING, Any, Callable, Literal, Sequence
 
 import numpy as np
 
@@ -23,21 +26,35 @@ from xfemcontact._petsc import PETSc
 from xfemcontact.errors import MeshError
 from xfemcontact.fem.elements import affine_cells, element
 
+if TYPE_CHECKING:
+    import ctypes
+
+    from numpy.typing import NDArray
+
+    from xfemcontact.fem.elements import Element
+    from xfemcontact.mesh.raw import RawMesh
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+    #: DMPlexCreateFromDAG through ctypes, False where it cannot be found
+    DagFunction = Callable[..., int] | Literal[False]
+
 #: labels PETSc creates itself; never confused with mesh groups
 _INTERNAL_LABELS = {"depth", "celltype", "boundary"}
 _BOUNDARY = "boundary"
 ENTITY, NODE = 1, 2      # label values: cells/edges of a group, nodes of a node group
 
 
-def _edge_keys(a, b, n):
+def _edge_keys(a: IntArray, b: IntArray, n: int) -> IntArray:
     lo, hi = np.minimum(a, b), np.maximum(a, b)
     return lo.astype(np.int64) * n + hi
 
 
-def _build_serial(raw, comm):
+def _build_serial(raw: RawMesh, comm: PETSc.Comm) -> tuple[PETSc.DMPlex, IntArray]:
     """DMPlex of ``raw`` on rank 0 (empty elsewhere), with labels and boundary marks."""
     nv = raw.n_vertices_per_cell
-    node_of_point = None
+    dag: _EdgeDag | None
     if comm.rank == 0:
         vnodes = raw.vertex_nodes
         vindex = np.full(len(raw.points), -1, dtype=np.int64)
@@ -46,8 +63,9 @@ def _build_serial(raw, comm):
         dag = _edge_dag(raw, vindex, len(vnodes))
     else:
         coords, dag = np.zeros((0, 2)), _EdgeDag.empty(element(raw.cell_type).edges.shape[0])
-    if _dag_function():
-        dm = _create_from_dag(comm, dag, coords)
+    create = _dag_function()
+    if create:
+        dm = _create_from_dag(comm, dag, coords, create)
     else:               # petsc4py's own (slower) interpolation numbers the edges itself
         cells = (vindex[raw.cells[:, :nv]] if comm.rank == 0 else np.zeros((0, nv))).astype(np.int32)
         dm = PETSc.DMPlex().createFromCellList(2, cells, coords, interpolate=True, comm=comm)
@@ -69,17 +87,17 @@ class _EdgeDag:
     order cells first reach them).  Edge ``i`` of a cell runs from its vertex ``i``
     to vertex ``i + 1``."""
 
-    cell_edges: np.ndarray    # (nc, nec) edge index of each cell edge
-    orientation: np.ndarray   # (nc, nec) 0 if the cell runs along the edge's cone, -1 if against
-    cones: np.ndarray         # (ne, 2) vertex indices (into the vertex nodes) of each edge
+    cell_edges: IntArray      # (nc, nec) edge index of each cell edge
+    orientation: IntArray     # (nc, nec) 0 if the cell runs along the edge's cone, -1 if against
+    cones: IntArray           # (ne, 2) vertex indices (into the vertex nodes) of each edge
 
     @classmethod
-    def empty(cls, nec):
+    def empty(cls, nec: int) -> _EdgeDag:
         """No cells (ranks other than 0 before distribution)."""
         return cls(np.zeros((0, nec), np.int64), np.zeros((0, nec), np.int64), np.zeros((0, 2), np.int64))
 
 
-def _edge_dag(raw, vindex, nvert):
+def _edge_dag(raw: RawMesh, vindex: IntArray, nvert: int) -> _EdgeDag:
     ed = raw.cells[:, element(raw.cell_type).edges]                  # (nc, nec, 3): a, b, mid
     a, b = vindex[ed[..., 0]], vindex[ed[..., 1]]
     keys = _edge_keys(a, b, nvert).ravel()
@@ -93,8 +111,8 @@ def _edge_dag(raw, vindex, nvert):
     return _EdgeDag(cell_edges, orientation, cones)
 
 
-def _dag_function():
-    """``DMPlexCreateFromDAG`` from the PETSc library petsc4py is linked to, or None.
+def _dag_function() -> DagFunction:
+    """``DMPlexCreateFromDAG`` from the PETSc library petsc4py is linked to, or False.
 
     petsc4py 3.18 does not wrap it; building the interpolated DAG ourselves (the
     edges are known from the quadratic cells) is 4 to 6 times faster than
@@ -103,26 +121,31 @@ def _dag_function():
     global _DAG_FUNCTION
     if _DAG_FUNCTION is None:
         import ctypes
+        fn: DagFunction
         try:
-            fn = ctypes.CDLL(PETSc.__file__).DMPlexCreateFromDAG
-            fn.restype = ctypes.c_int
-            fn.argtypes = [ctypes.c_void_p, _ctype_int()] + [ctypes.c_void_p] * 5
+            found = ctypes.CDLL(PETSc.__file__).DMPlexCreateFromDAG
+            found.restype = ctypes.c_int
+            argtypes: list[type[ctypes._SimpleCData[Any]]] = [ctypes.c_void_p, _ctype_int()]
+            found.argtypes = argtypes + [ctypes.c_void_p] * 5
+            fn = found
         except (OSError, AttributeError, TypeError):
             fn = False
         _DAG_FUNCTION = fn
     return _DAG_FUNCTION
 
 
-_DAG_FUNCTION = None
+_DAG_FUNCTION: DagFunction | None = None
 
 
-def _ctype_int():
+def _ctype_int() -> type[ctypes._SimpleCData[int]]:
     import ctypes
     return {4: ctypes.c_int32, 8: ctypes.c_int64}[np.dtype(PETSc.IntType).itemsize]
 
 
-def _create_from_dag(comm, dag, coords):
-    """Interpolated DMPlex (cells, then vertices, then edges) from an :class:`_EdgeDag`."""
+def _create_from_dag(comm: PETSc.Comm, dag: _EdgeDag, coords: FloatArray,
+                     create: Callable[..., int]) -> PETSc.DMPlex:
+    """Interpolated DMPlex (cells, then vertices, then edges) from an :class:`_EdgeDag`;
+    ``create``: DMPlexCreateFromDAG (:func:`_dag_function`)."""
     it = PETSc.IntType
     (nc, nec), nvert, ne = dag.cell_edges.shape, len(coords), len(dag.cones)
     sizes = np.r_[np.full(nc, nec), np.zeros(nvert, int), np.full(ne, 2)].astype(it)
@@ -133,12 +156,13 @@ def _create_from_dag(comm, dag, coords):
     dm = PETSc.DMPlex().create(comm=comm)
     dm.setDimension(2)
     ptr = [x.ctypes.data for x in (counts, sizes, cones, orient, xyz)]
-    if _dag_function()(dm.handle, 2, *ptr) != 0:
+    if create(dm.handle, 2, *ptr) != 0:
         raise MeshError("DMPlexCreateFromDAG failed (PETSc printed the reason above)")
     return dm
 
 
-def _match_nodes(dm, raw, vnodes, vindex, dag=None):
+def _match_nodes(dm: PETSc.DMPlex, raw: RawMesh, vnodes: IntArray, vindex: IntArray,
+                 dag: _EdgeDag | None = None) -> tuple[IntArray, IntArray]:
     """Input node index of every vertex and edge point (-1 for cells), and the
     ``(ne, 2)`` vertex indices (into ``vnodes``) of every edge point.
 
@@ -167,7 +191,8 @@ def _match_nodes(dm, raw, vnodes, vindex, dag=None):
     return node_of_point, cones
 
 
-def _label_groups(dm, raw, vnodes, vindex, node_of_point, cone):
+def _label_groups(dm: PETSc.DMPlex, raw: RawMesh, vnodes: IntArray, vindex: IntArray,
+                  node_of_point: IntArray, cone: IntArray) -> None:
     """One DMLabel per mesh group (value 1) on rank 0."""
     cs, ce = dm.getHeightStratum(0)
     vs = dm.getDepthStratum(0)[0]
@@ -182,7 +207,7 @@ def _label_groups(dm, raw, vnodes, vindex, node_of_point, cone):
     order = np.argsort(ekeys)
     for name in raw.group_names():
         label = name if name not in _INTERNAL_LABELS else f"group:{name}"
-        entities = []
+        entities: list[IntArray] = []
         if name in raw.cell_groups:
             entities.append(cs + np.asarray(raw.cell_groups[name], dtype=np.int64))
         if name in raw.edge_groups:
@@ -205,12 +230,13 @@ def _label_groups(dm, raw, vnodes, vindex, node_of_point, cone):
             _set_stratum(lab, NODE, p[p >= 0])       # nodes of no cell cannot be DMPlex points
 
 
-def _set_stratum(label, value, points):
+def _set_stratum(label: PETSc.DMLabel, value: int, points: IntArray) -> None:
     pts = np.unique(points).astype(PETSc.IntType)
     label.setStratumIS(value, PETSc.IS().createGeneral(pts, comm=PETSc.COMM_SELF))
 
 
-def _nodal_field(dm, node_of_point, points, data, cells):
+def _nodal_field(dm: PETSc.DMPlex, node_of_point: IntArray, points: FloatArray,
+                 data: Sequence[FloatArray], cells: IntArray) -> tuple[PETSc.Section, PETSc.Vec]:
     """Section and Vec carrying (x, y, input node index, nodal fields...) on
     vertices and edges and (input cell index, input node indices of its nodes)
     on cells: once distributed, every process rebuilds its cells' nodes from
@@ -239,7 +265,7 @@ def _nodal_field(dm, node_of_point, points, data, cells):
     return sec, vec
 
 
-def _field_dofs(dm, nfields, nn):
+def _field_dofs(dm: PETSc.DMPlex, nfields: int, nn: int) -> IntArray:
     pstart, pend = dm.getChart()
     dofs = np.full(pend - pstart, 3 + nfields, dtype=np.int64)
     cs, ce = dm.getHeightStratum(0)
@@ -247,11 +273,12 @@ def _field_dofs(dm, nfields, nn):
     return dofs
 
 
-def _field_offsets(dofs):
+def _field_offsets(dofs: IntArray) -> IntArray:
     return np.concatenate([[0], np.cumsum(dofs)[:-1]])
 
 
-def _partition(dm, raw, comm, cell_weights):
+def _partition(dm: PETSc.DMPlex, raw: RawMesh, comm: PETSc.Comm,
+               cell_weights: IntArray | None) -> dict[str, Any]:
     """Choose the partitioner: the user's PETSc one, or METIS.  Returns a summary."""
     opts = PETSc.Options()
     part = dm.getPartitioner()
@@ -260,16 +287,13 @@ def _partition(dm, raw, comm, cell_weights):
         return {"partitioner": part.getType()}
     from xfemcontact.mesh import partition
 
-    nv = raw.n_vertices_per_cell
-    verts, weights = None, None
-    if comm.rank == 0:
-        verts = raw.cells[:, :nv]
-        weights = cell_weights if cell_weights is not None else np.ones(len(verts), np.int64)
+    verts = raw.cells[:, :raw.n_vertices_per_cell]          # no cells on ranks other than 0
+    weights = cell_weights if cell_weights is not None else np.ones(len(verts), np.int64)
     sizes, load = partition.shell_partition(dm, verts, weights, comm)
     return {"partitioner": "metis", "cells": sizes, "weight": load}
 
 
-def point_sf_leaves(dm):
+def point_sf_leaves(dm: PETSc.DMPlex) -> IntArray:
     """Local points owned by another process (leaves of the point SF)."""
     if dm.comm.size == 1:
         return np.zeros(0, dtype=np.int64)
@@ -285,36 +309,45 @@ class LocalMesh:
 
     Local node ``i`` is the DMPlex point ``node_points[i]`` (vertices first, then
     edges); ``cell_nodes`` uses our node order (vertices counter-clockwise, then
-    mid-edge nodes).
+    mid-edge nodes).  The index arrays are int32 when the indices fit (half the
+    memory, :func:`_index_type`), int64 otherwise; both are typed ``IntArray``.
     """
 
-    dm: object
+    dm: PETSc.DMPlex | None    # None once released (release_topology)
     cell_type: str
-    cells: np.ndarray          # (nc,) DMPlex cell points
-    cell_nodes: np.ndarray     # (nc, nn) local node indices
-    cell_ids: np.ndarray       # (nc,) cell index in the input mesh
-    node_points: np.ndarray    # (n,) DMPlex point of each local node
-    node_of_point: np.ndarray  # (chart,) local node of each point, -1 for cells
-    x: np.ndarray              # (n, 2) node coordinates, m
-    node_ids: np.ndarray       # (n,) node index in the input mesh
-    node_owned: np.ndarray     # (n,) bool, this process owns the node's point
+    cells: IntArray            # (nc,) DMPlex cell points
+    cell_nodes: IntArray       # (nc, nn) local node indices
+    cell_ids: IntArray         # (nc,) cell index in the input mesh
+    node_points: IntArray      # (n,) DMPlex point of each local node
+    node_of_point: IntArray    # (chart,) local node of each point, -1 for cells
+    x: FloatArray              # (n, 2) node coordinates, m
+    node_ids: IntArray         # (n,) node index in the input mesh
+    node_owned: BoolArray      # (n,) bool, this process owns the node's point
     n_vertices: int            # local nodes [0, n_vertices) are vertices
     source: str = ""
-    partition: dict = None     # partitioner and load balance
-    node_data: dict = None     # nodal fields of the mesh file, name -> (n,)
+    partition: dict[str, Any] | None = None         # partitioner and load balance
+    node_data: dict[str, FloatArray] | None = None  # nodal fields of the mesh file, name -> (n,)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         # kept when the DMPlex is released (release_topology): the communicator, the
         # chart and the point star forest (node reductions between processes)
-        self._comm = self.dm.comm
-        self.chart = self.dm.getChart()
-        self.point_sf = self.dm.getPointSF() if self._comm.size > 1 else None
+        dm = self.plex
+        self._comm: PETSc.Comm = dm.comm
+        self.chart: tuple[int, int] = dm.getChart()
+        self.point_sf: PETSc.SF | None = dm.getPointSF() if self._comm.size > 1 else None
 
     @property
-    def comm(self):
+    def comm(self) -> PETSc.Comm:
         return self._comm
 
-    def release_topology(self):
+    @property
+    def plex(self) -> PETSc.DMPlex:
+        """The DMPlex (mesh groups, cones and supports) until :meth:`release_topology`."""
+        if self.dm is None:
+            raise AttributeError("the mesh's DMPlex was released (release_topology)")
+        return self.dm
+
+    def release_topology(self) -> None:
         """Destroy the DMPlex (cones, supports, labels, coordinates: 27 MB at 410k
         nodes) once the set-up is done: the solve and the post-processing use the
         arrays of this object only.  Mesh groups cannot be asked for afterwards."""
@@ -323,15 +356,15 @@ class LocalMesh:
             self.dm = None
 
     @property
-    def element(self):
+    def element(self) -> Element:
         return element(self.cell_type)
 
-    def cell_coordinates(self):
+    def cell_coordinates(self) -> FloatArray:
         """``(nc, nn, 2)`` node coordinates of every local cell."""
         return self.x[self.cell_nodes]
 
     @cached_property
-    def affine(self):
+    def affine(self) -> BoolArray:
         """``(nc,)`` bool: cells with an affine map (:func:`elements.affine_cells`)."""
         el, n = self.element, len(self.cells)
         step = 65536            # bounded temporaries
@@ -339,34 +372,36 @@ class LocalMesh:
                                for s in range(0, n, step)]) if n else np.zeros(0, bool)
 
     # -- groups -------------------------------------------------------------
-    def group_names(self):
-        names = [self.dm.getLabelName(i) for i in range(self.dm.getNumLabels())]
+    def group_names(self) -> list[str]:
+        dm = self.plex
+        names = [dm.getLabelName(i) for i in range(dm.getNumLabels())]
         return sorted(n.removeprefix("group:") for n in names if n not in _INTERNAL_LABELS)
 
-    def has_group(self, name):
+    def has_group(self, name: str) -> bool:
         return name in self.group_names()
 
-    def _label(self, name):
+    def _label(self, name: str) -> str:
         return name if name not in _INTERNAL_LABELS else f"group:{name}"
 
-    def group_points(self, name, value=ENTITY):
+    def group_points(self, name: str, value: int = ENTITY) -> IntArray:
         """Local DMPlex points of group ``name``: its cells and edges (``ENTITY``)
         or the points carrying its nodes (``NODE``)."""
         label = self._label(name)
-        if not self.dm.hasLabel(label):
+        if not self.plex.hasLabel(label):
             raise KeyError(name)
         return self._stratum(label, value)
 
-    def _stratum(self, label, value=ENTITY):
-        if self.dm.getStratumSize(label, value) == 0:
+    def _stratum(self, label: str, value: int = ENTITY) -> IntArray:
+        dm = self.plex
+        if dm.getStratumSize(label, value) == 0:
             return np.zeros(0, np.int64)
-        iset = self.dm.getStratumIS(label, value)
+        iset = dm.getStratumIS(label, value)
         return np.asarray(iset.getIndices(), dtype=np.int64) if iset.getSize() else np.zeros(0, np.int64)
 
-    def group_nodes(self, name):
+    def group_nodes(self, name: str) -> IntArray:
         """Local nodes of group ``name``: nodes of its cells and edges, and its nodes."""
         pts = self.group_points(name)
-        cs, ce = self.dm.getHeightStratum(0)
+        cs, ce = self.plex.getHeightStratum(0)
         is_cell = (pts >= cs) & (pts < ce)
         nodes = [self.node_of_point[self.group_points(name, NODE)]]
         if is_cell.any():
@@ -377,20 +412,21 @@ class LocalMesh:
             nodes.append(self.edge_nodes(edges).ravel())
         return np.unique(np.concatenate(nodes)).astype(np.int64)
 
-    def group_edge_nodes(self, name):
+    def group_edge_nodes(self, name: str) -> IntArray:
         """``(k, 3)`` nodes of every local edge of group ``name`` (shared ones too)."""
         return self.edge_nodes(self._edge_points(self.group_points(name)))
 
-    def _edge_points(self, pts):
-        es, ee = self.dm.getDepthStratum(1)
+    def _edge_points(self, pts: IntArray) -> IntArray:
+        es, ee = self.plex.getDepthStratum(1)
         return pts[(pts >= es) & (pts < ee)]
 
-    def edge_nodes(self, edges):
+    def edge_nodes(self, edges: IntArray) -> IntArray:
         """``(k, 3)`` local nodes (a, b, mid) of edge points ``edges``."""
-        cone = np.array([self.dm.getCone(e) for e in edges], dtype=np.int64).reshape(-1, 2)
+        dm = self.plex
+        cone = np.array([dm.getCone(e) for e in edges], dtype=np.int64).reshape(-1, 2)
         return np.c_[self.node_of_point[cone], self.node_of_point[edges]]
 
-    def group_edges(self, name):
+    def group_edges(self, name: str) -> tuple[IntArray, IntArray, IntArray]:
         """Edges of group ``name`` this process integrates on (each edge once overall).
 
         Returns ``(nodes (k, 3), cell (k,), local_edge (k,))``: the edge's nodes
@@ -408,20 +444,21 @@ class LocalMesh:
         nodes = self.cell_nodes[cell_of_edge[:, None], el.edges[local]]
         return nodes, cell_of_edge, local
 
-    def _edge_cells(self, edges):
+    def _edge_cells(self, edges: IntArray) -> tuple[IntArray, IntArray]:
         """A local cell holding each edge and the edge's index in it (-1 if none)."""
+        dm = self.plex
         cell = np.full(len(edges), -1, dtype=np.int64)
         local = np.zeros(len(edges), dtype=np.int64)
         for k, e in enumerate(edges):
-            for c in self.dm.getSupport(e):
+            for c in dm.getSupport(e):
                 idx = np.searchsorted(self.cells, c)
                 if idx < len(self.cells) and self.cells[idx] == c:
-                    cone = list(self.dm.getCone(c))
+                    cone = list(dm.getCone(c))
                     cell[k], local[k] = idx, cone.index(e)
                     break
         return cell, local
 
-    def boundary_edges(self):
+    def boundary_edges(self) -> IntArray:
         """Nodes ``(k, 3)`` of domain-boundary edges held by local cells (all of them)."""
         edges = self._edge_points(self._stratum(_BOUNDARY))
         cell, local = self._edge_cells(edges)
@@ -429,7 +466,8 @@ class LocalMesh:
         return self.cell_nodes[cell[keep][:, None], self.element.edges[local[keep]]]
 
 
-def load(raw, comm=None, cell_weights=None):
+def load(raw: RawMesh | None, comm: PETSc.Comm | None = None,
+         cell_weights: IntArray | None = None) -> LocalMesh:
     """Build the DMPlex of ``raw`` (significant on rank 0), distribute it, return a LocalMesh.
 
     ``raw`` may be None on ranks other than 0; ``cell_weights`` (rank 0) weight the
@@ -437,21 +475,20 @@ def load(raw, comm=None, cell_weights=None):
     """
     comm = comm or PETSc.COMM_WORLD
     mpi = comm.tompi4py()
-    meta = mpi.bcast((raw.cell_type, raw.source, sorted(raw.point_data), len(raw.cells), len(raw.points))
-                     if mpi.rank == 0 else None, root=0)
-    cell_type, source, field_names, ncells, nnodes = meta
+    meta = None
+    if mpi.rank == 0:
+        assert raw is not None, "the input mesh is significant on rank 0"
+        meta = (raw.cell_type, raw.source, sorted(raw.point_data), len(raw.cells), len(raw.points))
+    cell_type, source, field_names, ncells, nnodes = mpi.bcast(meta, root=0)
     from xfemcontact import resources
 
     resources.check_cells(cell_type, ncells, comm.size, source, nodes=nnodes)   # before the DMPlex
-    if mpi.rank != 0:
-        raw = _Stub(cell_type, source)
+    if raw is None or mpi.rank != 0:
+        raw = _no_cells(cell_type, source)
     dm, node_of_point = _build_serial(raw, comm)
-    points = raw.points if mpi.rank == 0 else None
-    data = [raw.point_data[k] for k in field_names] if mpi.rank == 0 else [None] * len(field_names)
-    nn = element(cell_type).nn
-    cells = raw.cells if mpi.rank == 0 else np.zeros((0, nn), np.int64)
-    sec, vec = _nodal_field(dm, node_of_point, points, data, cells)
-    part_info = {"partitioner": "none"}
+    data = [raw.point_data[k] for k in field_names] if mpi.rank == 0 else [np.zeros(0)] * len(field_names)
+    sec, vec = _nodal_field(dm, node_of_point, raw.points, data, raw.cells)
+    part_info: dict[str, Any] = {"partitioner": "none"}
     if comm.size > 1:
         part_info = _partition(dm, raw, comm, cell_weights)
         sf = dm.distribute()
@@ -466,17 +503,16 @@ def load(raw, comm=None, cell_weights=None):
     return mesh
 
 
-class _Stub:
+def _no_cells(cell_type: str, source: str) -> RawMesh:
     """Stands for the RawMesh on ranks other than 0 (which hold no cells)."""
+    from xfemcontact.mesh.raw import RawMesh
 
-    def __init__(self, cell_type, source):
-        self.cell_type, self.source = cell_type, source
-        self.n_vertices_per_cell = element(cell_type).nv
-        self.points = np.zeros((0, 2))
-        self.point_data = {}
+    return RawMesh(points=np.zeros((0, 2)), cell_type=cell_type,
+                   cells=np.zeros((0, element(cell_type).nn), np.int64), source=source)
 
 
-def _local_view(dm, sec, vec, cell_type, source, field_names=()):
+def _local_view(dm: PETSc.DMPlex, sec: PETSc.Section, vec: PETSc.Vec, cell_type: str, source: str,
+                field_names: Sequence[str] = ()) -> LocalMesh:
     pstart, pend = dm.getChart()
     cs, ce = dm.getHeightStratum(0)
     vs, ve = dm.getDepthStratum(0)
@@ -511,12 +547,12 @@ def _local_view(dm, sec, vec, cell_type, source, field_names=()):
                      n_vertices=ve - vs, source=source, node_data=node_data)
 
 
-def _index_type(bound):
+def _index_type(bound: int) -> type[np.int32] | type[np.int64]:
     """int32 for indices below ``bound`` when it fits, else int64."""
     return np.int32 if bound < np.iinfo(np.int32).max else np.int64
 
 
-def _local_cell_nodes(cell_input_nodes, node_ids):
+def _local_cell_nodes(cell_input_nodes: IntArray, node_ids: IntArray) -> IntArray:
     """Local node indices ``(nc, nn)`` of cells given by input node indices: every
     node of a local cell is a local point (DMPlex distributes closures)."""
     order = np.argsort(node_ids, kind="stable")
@@ -528,11 +564,12 @@ def _local_cell_nodes(cell_input_nodes, node_ids):
     return found
 
 
-def reduce_nodes(mesh, values, op="sum"):
+def reduce_nodes(mesh: LocalMesh, values: NDArray[Any], op: str = "sum") -> Any:
     """Combine per-node ``values (n, ...)`` over every process holding the node.
 
     ``op``: "sum", "max" or "min".  Each process gets the combined value at its
-    nodes (owners reduce the copies of the other processes, then broadcast).
+    nodes (owners reduce the copies of the other processes, then broadcast): an
+    array of the dtype and shape of ``values`` (typed Any: callers convert it).
     """
     values = np.ascontiguousarray(values)
     if mesh.comm.size == 1:
@@ -553,6 +590,7 @@ def reduce_nodes(mesh, values, op="sum"):
     if op == "sum":
         root[mesh.node_points[~mesh.node_owned]] = 0   # a ghost's value reaches its owner through the SF
     sf = mesh.point_sf
+    assert sf is not None                  # several processes
     sf.reduceBegin(unit, leaf, root, mpi_op)
     sf.reduceEnd(unit, leaf, root, mpi_op)
     out = root.copy()

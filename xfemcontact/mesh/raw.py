@@ -6,11 +6,20 @@ vertices counter-clockwise, then the mid-edge nodes, edge ``k`` joining vertex
 Groups keep their names: cell groups, edge groups (SEG3 boundary or interior
 edges) and node groups.  It lives on rank 0 only.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from xfemcontact.errors import MeshError
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
 
 #: number of vertices and of nodes of each supported cell type
 CELL_TYPES = {"QUAD8": (4, 8), "TRIA6": (3, 6)}
@@ -18,28 +27,30 @@ CELL_TYPES = {"QUAD8": (4, 8), "TRIA6": (3, 6)}
 
 @dataclass
 class RawMesh:
-    points: np.ndarray                  # (n_nodes, 2) float, m
+    """A mesh of one quadratic cell type with its groups (see the module documentation)."""
+
+    points: FloatArray                  # (n_nodes, 2) float, m
     cell_type: str                      # "QUAD8" or "TRIA6"
-    cells: np.ndarray                   # (n_cells, 8|6) int node indices
-    cell_groups: dict = field(default_factory=dict)   # name -> (k,) cell indices
-    edge_groups: dict = field(default_factory=dict)   # name -> (k, 3) nodes (a, b, mid)
-    node_groups: dict = field(default_factory=dict)   # name -> (k,) node indices
+    cells: IntArray                     # (n_cells, 8|6) int node indices
+    cell_groups: dict[str, IntArray] = field(default_factory=dict)    # name -> (k,) cell indices
+    edge_groups: dict[str, IntArray] = field(default_factory=dict)    # name -> (k, 3) nodes (a, b, mid)
+    node_groups: dict[str, IntArray] = field(default_factory=dict)    # name -> (k,) node indices
     source: str = "<generated>"         # file name used in messages
-    point_data: dict = field(default_factory=dict)    # name -> (n_nodes,) float nodal fields
+    point_data: dict[str, FloatArray] = field(default_factory=dict)   # name -> (n_nodes,) float nodal fields
 
     @property
-    def n_vertices_per_cell(self):
+    def n_vertices_per_cell(self) -> int:
         return CELL_TYPES[self.cell_type][0]
 
     @property
-    def vertex_nodes(self):
+    def vertex_nodes(self) -> IntArray:
         """Sorted indices of the nodes that are cell vertices."""
         return np.unique(self.cells[:, : self.n_vertices_per_cell])
 
-    def group_names(self):
+    def group_names(self) -> list[str]:
         return sorted(set(self.cell_groups) | set(self.edge_groups) | set(self.node_groups))
 
-    def group_nodes(self, name):
+    def group_nodes(self, name: str) -> IntArray:
         """All node indices of group ``name`` (nodes of its cells or edges)."""
         parts = []
         if name in self.node_groups:
@@ -52,7 +63,7 @@ class RawMesh:
             raise KeyError(name)
         return np.unique(np.concatenate(parts))
 
-    def check(self):
+    def check(self) -> RawMesh:
         """Validate shapes and geometry; re-orient clockwise cells.
 
         Every cell is made counter-clockwise (a consistently clockwise mesh is

@@ -37,15 +37,31 @@ what decompresses from a VTU file may not exceed :func:`size_limit` (a fraction 
 this machine's memory, ``-xfc_mesh_max_mb`` to change it).  Messages never print
 data read from the files referred to.
 """
+from __future__ import annotations
+
 import contextlib
 import importlib
 import os
 import re
+from typing import TYPE_CHECKING, Any, Collection, Iterator, NoReturn, Sequence
 
 import numpy as np
 
 from xfemcontact.errors import MeshError
 from xfemcontact.mesh.raw import RawMesh
+
+if TYPE_CHECKING:
+    from types import ModuleType
+
+    import meshio
+    from numpy.typing import ArrayLike, NDArray
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    #: a file name as the callers give it
+    PathName = str | os.PathLike[str]
+    #: a meshio cell block: (meshio cell type, connectivity (k, nn))
+    Block = tuple[str, IntArray]
 
 #: fraction of the machine's memory the data of a mesh file may take by default
 MEMORY_FRACTION = 1 / 16
@@ -64,7 +80,8 @@ _QUAD9_HINT = ("Gmsh writes order-2 quadrilaterals as quad9 unless "
                "Mesh.SecondOrderIncomplete=1")
 
 
-def read_mesh(path, display_name=None, roots=None, limit=None):
+def read_mesh(path: PathName, display_name: str | None = None, roots: Sequence[PathName] | None = None,
+              limit: int | None = None) -> RawMesh:
     """Read the mesh file ``path`` (str or path-like) into a checked :class:`RawMesh`.
 
     ``display_name`` is the name used in messages and kept as ``source``
@@ -82,7 +99,7 @@ def read_mesh(path, display_name=None, roots=None, limit=None):
 
 
 # -- confinement and sizes ------------------------------------------------------------
-def memory_bytes():
+def memory_bytes() -> int:
     """This machine's memory (bytes), or the memory limit of our control group if lower."""
     try:
         total = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
@@ -97,7 +114,7 @@ def memory_bytes():
     return total
 
 
-def size_limit():
+def size_limit() -> int:
     """Bytes a mesh file may declare: ``-xfc_mesh_max_mb``, else :data:`MEMORY_FRACTION`
     of :func:`memory_bytes`."""
     from xfemcontact import options
@@ -106,51 +123,52 @@ def size_limit():
     return int(given * 1e6) if given is not None else int(memory_bytes() * MEMORY_FRACTION)
 
 
-def _mb(n):
+def _mb(n: float) -> str:
     return f"{n / 1e6:.3g} MB"
 
 
-def _too_big(source, what, size, limit):
+def _too_big(source: str, what: str, size: int, limit: int) -> MeshError:
     return MeshError(f"{source}: {what} is {_mb(size)}, more than the {_mb(limit)} allowed "
                      f"(1/16 of this machine's memory; raise it with -xfc_mesh_max_mb)")
 
 
-def check_input(path, fmt, source, roots=None, limit=None):
+def check_input(path: PathName, fmt: str, source: str, roots: Sequence[PathName] | None = None,
+                limit: int | None = None) -> None:
     """Refuse, before reading, a mesh file whose data lie outside ``roots`` or whose
     sizes exceed ``limit`` bytes (see the module documentation)."""
     limit = size_limit() if limit is None else limit
-    roots = [os.path.realpath(r) for r in (roots or [os.path.dirname(os.path.abspath(path))])]
-    roots = [r for r in roots if r != os.path.dirname(r)] or roots   # never the whole disk
+    real = [os.path.realpath(r) for r in (roots or [os.path.dirname(os.path.abspath(path))])]
+    real = [r for r in real if r != os.path.dirname(r)] or real      # never the whole disk
     size = os.path.getsize(path)
     if size > limit:
         raise _too_big(source, "the file", size, limit)
     if fmt == "xdmf":
-        _check_xdmf(path, source, roots, limit)
+        _check_xdmf(path, source, real, limit)
     elif fmt == "med":
-        _check_hdf5(path, source, roots, limit, os.path.basename(path))
+        _check_hdf5(path, source, real, limit, os.path.basename(path))
     elif fmt == "vtu":
         declared = _vtu_declared(path)
         if declared > limit:
             raise _too_big(source, "the data it declares (decompressed)", declared, limit)
 
 
-def _inside(target, roots):
+def _inside(target: PathName, roots: Sequence[str]) -> bool:
     real = os.path.realpath(target)
     return any(os.path.commonpath([real, r]) == r for r in roots)
 
 
-def _shown(text, limit=80):
+def _shown(text: object, limit: int = 80) -> str:
     """A name from a file, printable, its end kept when long (the file name matters)."""
     text = "".join(c if c.isprintable() else "?" for c in str(text))
     return text if len(text) <= limit else "..." + text[-(limit - 3):]
 
 
-def _outside(source, what, ref):
+def _outside(source: str, what: str, ref: str) -> MeshError:
     return MeshError(f"{source}: {what} '{_shown(ref)}' lies outside the folders of the case "
                      f"and mesh files: refused (put the data next to the mesh file)")
 
 
-def _check_xdmf(path, source, roots, limit):
+def _check_xdmf(path: PathName, source: str, roots: Sequence[str], limit: int) -> None:
     from xml.etree import ElementTree as ET
 
     with open(path, "rb") as f:
@@ -198,7 +216,7 @@ def _check_xdmf(path, source, roots, limit):
                 total += _check_hdf5(target, source, roots, limit - total, name)
 
 
-def _check_hdf5(path, source, roots, limit, shown):
+def _check_hdf5(path: PathName, source: str, roots: Sequence[str], limit: int, shown: str) -> int:
     """Walk an HDF5 file without reading data: external links, external and virtual
     storage inside ``roots``, declared dataset sizes within ``limit``; returns the bytes
     declared."""
@@ -251,7 +269,7 @@ def _check_hdf5(path, source, roots, limit, shown):
     return total
 
 
-def _vtu_declared(path):
+def _vtu_declared(path: PathName) -> int:
     """Bytes the compressed DataArrays of a VTU file decompress to, from their block
     headers (0 when uncompressed: then bounded by the file size; a header that cannot be
     parsed counts 0, and the decompression is bounded anyway, see :class:`_Budget`)."""
@@ -275,26 +293,29 @@ def _vtu_declared(path):
         end = raw.find(b"</AppendedData>", appended.end())
         blob = raw[appended.end():end if end > 0 else len(raw)].split(b"_", 1)[-1]
 
-    def size(header_bytes):
+    def size(header_bytes: bytes) -> int:
         h = np.frombuffer(header_bytes[:3 * itemsize], dtype)
         if len(h) < 3:
             return 0
         n, block, last = (int(v) for v in h)
         return max(n - 1, 0) * block + (last or block) if n else 0
 
-    def from_base64(text):            # 3 header items = 3 x itemsize bytes = 4 x itemsize chars
+    def from_base64(text: bytes) -> int:            # 3 header items = 3 x itemsize bytes = 4 x itemsize chars
         return size(base64.b64decode(text[:4 * itemsize]))
 
     total = 0
     try:
         for m in re.finditer(rb"<DataArray\b([^>]*?)(/>|>(.*?)</DataArray>)", xml, re.S):
             attrs = m.group(1)
-            fmt = re.search(rb'format="(\w+)"', attrs)
-            fmt = fmt.group(1) if fmt else b"ascii"
+            found = re.search(rb'format="(\w+)"', attrs)
+            fmt = found.group(1) if found else b"ascii"
             if fmt == b"binary":
                 total += from_base64((m.group(3) or b"").strip())
             elif fmt == b"appended" and appended:
-                offset = int(re.search(rb'offset="\s*(\d+)', attrs).group(1))
+                found = re.search(rb'offset="\s*(\d+)', attrs)
+                if found is None:             # no offset: what it declares is not known
+                    return total
+                offset = int(found.group(1))
                 total += size(blob[offset:offset + 3 * itemsize]) if is_raw else \
                     from_base64(blob[offset:].lstrip())
     except (ValueError, AttributeError, TypeError):
@@ -306,17 +327,17 @@ class _Budget:
     """A decompressor (``zlib`` or ``lzma``) that refuses to produce more than ``left``
     bytes in all (meshio's VTU reader calls ``module.decompress``)."""
 
-    def __init__(self, module, state, source):
+    def __init__(self, module: ModuleType, state: dict[str, int], source: str) -> None:
         self.module, self.state, self.source = module, state, source
 
-    def __getattr__(self, name):
+    def __getattr__(self, name: str) -> Any:
         return getattr(self.module, name)
 
-    def decompress(self, data):
+    def decompress(self, data: bytes) -> bytes:
         import lzma
 
         left = self.state["left"]
-        d = lzma.LZMADecompressor() if self.module is lzma else self.module.decompressobj()
+        d: Any = lzma.LZMADecompressor() if self.module is lzma else self.module.decompressobj()
         out = d.decompress(data, left + 1)
         if len(out) > left:
             raise _too_big(self.source, "its decompressed data", self.state["limit"] + 1,
@@ -326,14 +347,14 @@ class _Budget:
 
 
 @contextlib.contextmanager
-def _bounded_decompression(fmt, source, limit):
+def _bounded_decompression(fmt: str, source: str, limit: int) -> Iterator[None]:
     if fmt != "vtu":
         yield
         return
     import lzma
     import zlib
 
-    vtu = importlib.import_module("meshio.vtu._vtu")
+    vtu: Any = importlib.import_module("meshio.vtu._vtu")      # its zlib and lzma are replaced
     state = {"left": limit, "limit": limit}
     saved = vtu.zlib, vtu.lzma
     vtu.zlib, vtu.lzma = _Budget(zlib, state, source), _Budget(lzma, state, source)
@@ -343,7 +364,7 @@ def _bounded_decompression(fmt, source, limit):
         vtu.zlib, vtu.lzma = saved
 
 
-def from_meshio(m, source="<meshio>", fmt=None):
+def from_meshio(m: meshio.Mesh, source: str = "<meshio>", fmt: str | None = None) -> RawMesh:
     """Convert a ``meshio.Mesh`` into a checked :class:`RawMesh`.
 
     ``fmt`` is the meshio format the mesh was read from ("med", "gmsh", "xdmf",
@@ -354,7 +375,7 @@ def from_meshio(m, source="<meshio>", fmt=None):
     cell_type = _cell_type(blocks, source)
     points = _planar_points(np.asarray(m.points, dtype=float), source)
     typed = {t: _stack(blocks, t) for t in (cell_type, EDGE_TYPE, NODE_TYPE)}
-    parts = {t: {} for t in typed}
+    parts: dict[str, dict[str, list[IntArray]]] = {t: {} for t in typed}
     for name, k, idx in _block_sets(m, fmt, len(blocks)):
         kind = blocks[k][0]
         if kind in parts and len(idx):
@@ -379,7 +400,7 @@ def from_meshio(m, source="<meshio>", fmt=None):
 
 
 # -- file --------------------------------------------------------------------
-def _file_format(path, source):
+def _file_format(path: PathName, source: str) -> str:
     """meshio format name from the extension of ``path``; checks the file exists."""
     if not os.path.exists(path):
         raise MeshError(f"{source}: mesh file not found")
@@ -394,7 +415,7 @@ def _file_format(path, source):
     return FORMATS[ext]
 
 
-def _meshio_read(path, fmt, source, limit=None):
+def _meshio_read(path: PathName, fmt: str, source: str, limit: int | None = None) -> meshio.Mesh:
     """The ``meshio.Mesh`` in ``path``; every failure becomes a one-line MeshError."""
     # the format's own reader: meshio.read() turns reader errors into sys.exit(1)
     reader = importlib.import_module(f"meshio.{fmt}").read
@@ -422,7 +443,7 @@ def _meshio_read(path, fmt, source, limit=None):
                         f"({detail}){hint}") from exc
 
 
-def _truncated(path, fmt, exc, text):
+def _truncated(path: PathName, fmt: str, exc: Exception, text: str) -> bool:
     """Whether a reader's failure means the file ends early or its sizes do not match."""
     import struct
 
@@ -439,7 +460,7 @@ def _truncated(path, fmt, exc, text):
 
 
 # -- geometry and cells ------------------------------------------------------------
-def _planar_points(points, source):
+def _planar_points(points: FloatArray, source: str) -> FloatArray:
     """``(n, 2)`` coordinates from meshio's ``(n, 2|3)``; z must be constant."""
     if points.ndim != 2 or points.shape[1] not in (2, 3) or len(points) == 0:
         raise MeshError(f"{source}: no 2-D node coordinates (shape {points.shape})")
@@ -453,7 +474,7 @@ def _planar_points(points, source):
     return np.ascontiguousarray(xy)
 
 
-def _dimension(meshio_type):
+def _dimension(meshio_type: str) -> int:
     """Topological dimension of a meshio cell type (3 for anything else)."""
     if meshio_type == NODE_TYPE:
         return 0
@@ -464,16 +485,16 @@ def _dimension(meshio_type):
     return 3
 
 
-def _census(blocks, types):
+def _census(blocks: Sequence[Block], types: Collection[str]) -> str:
     """``"quad8 x1600, line3 x160"`` for the blocks whose type is in ``types``."""
-    count = {}
+    count: dict[str, int] = {}
     for t, data in blocks:
         if t in types:
             count[t] = count.get(t, 0) + len(data)
     return ", ".join(f"{t} x{n}" for t, n in count.items()) or "nothing"
 
 
-def _cell_type(blocks, source):
+def _cell_type(blocks: Sequence[Block], source: str) -> str:
     """The one supported 2-D meshio type of ``blocks``, or MeshError.
 
     3-D cells are reported first, then unsupported 2-D cells (with hints),
@@ -497,7 +518,7 @@ def _cell_type(blocks, source):
     return plane.pop()
 
 
-def _unsupported_plane(blocks, plane, source):
+def _unsupported_plane(blocks: Sequence[Block], plane: set[str], source: str) -> NoReturn:
     """MeshError listing the 2-D cells found, what is supported and a hint."""
     hints = []
     if plane & {"triangle", "quad"}:
@@ -512,7 +533,7 @@ def _unsupported_plane(blocks, plane, source):
                     + "".join(f"; {h}" for h in hints))
 
 
-def _stack(blocks, meshio_type):
+def _stack(blocks: Sequence[Block], meshio_type: str) -> tuple[IntArray, IntArray]:
     """Concatenated data of the blocks of ``meshio_type`` and per-block offsets.
 
     Returns ``(data (n, nn), offsets)`` with ``offsets[k]`` the row of block
@@ -527,15 +548,15 @@ def _stack(blocks, meshio_type):
 
 
 # -- groups ------------------------------------------------------------------------
-def _add(groups, name, idx):
+def _add(groups: dict[str, list[IntArray]], name: object, idx: ArrayLike) -> None:
     groups.setdefault(str(name), []).append(np.asarray(idx, dtype=np.int64).ravel())
 
 
-def _unique_all(groups):
+def _unique_all(groups: dict[str, list[IntArray]]) -> dict[str, IntArray]:
     return {name: np.unique(np.concatenate(parts)) for name, parts in groups.items()}
 
 
-def _block_sets(m, fmt, n_blocks):
+def _block_sets(m: meshio.Mesh, fmt: str | None, n_blocks: int) -> Iterator[tuple[str, int, IntArray]]:
     """Yield ``(name, block, local cell indices)`` from every group source of ``m``."""
     yield from _tagged_sets(m.cell_data.get("cell_tags"), getattr(m, "cell_tags", {}))
     yield from _gmsh_sets(m)
@@ -552,7 +573,8 @@ def _block_sets(m, fmt, n_blocks):
                     yield name, k, np.flatnonzero(np.asarray(a).ravel() == i)
 
 
-def _tagged_sets(tags_per_block, families):
+def _tagged_sets(tags_per_block: Sequence[ArrayLike] | None,
+                 families: dict[int, list[str]] | None) -> Iterator[tuple[str, int, IntArray]]:
     """MED families: ``tags_per_block[k]`` family of each cell, ``families`` {tag: [names]}."""
     for k, tags in enumerate(tags_per_block or ()):
         tags = np.asarray(tags).ravel()
@@ -562,7 +584,7 @@ def _tagged_sets(tags_per_block, families):
                 yield name, k, idx
 
 
-def _gmsh_sets(m):
+def _gmsh_sets(m: meshio.Mesh) -> Iterator[tuple[str, int, IntArray]]:
     """Gmsh physical groups: ``gmsh:physical`` tags named through ``field_data``."""
     physical = m.cell_data.get("gmsh:physical")
     if physical is None or len(physical) != len(m.cells):
@@ -576,17 +598,17 @@ def _gmsh_sets(m):
             yield names.get((int(tag), dim), str(tag)), k, np.flatnonzero(tags == tag)
 
 
-def _set_names(key, arrays):
+def _set_names(key: str, arrays: Sequence[ArrayLike]) -> list[str]:
     """Set names of integer data written by meshio's ``*_sets_to_data``, or [].
 
     The data qualify when every value lies in ``[-1, len(names))`` for the
     names obtained by splitting ``key`` on the first of meshio's join
     characters that allows it.
     """
-    arrays = [np.asarray(a) for a in arrays]
-    if not arrays or any(a.dtype.kind not in "iu" or a.size != len(a) for a in arrays):
+    arrs = [np.asarray(a) for a in arrays]
+    if not arrs or any(a.dtype.kind not in "iu" or a.size != len(a) for a in arrs):
         return []
-    values = np.concatenate([a.ravel() for a in arrays])
+    values = np.concatenate([a.ravel() for a in arrs])
     if len(values) == 0 or values.min() < -1:
         return []
     for char in _JOIN_CHARS:
@@ -596,7 +618,8 @@ def _set_names(key, arrays):
     return []
 
 
-def _point_sets(m, fmt, n_points, source):
+def _point_sets(m: meshio.Mesh, fmt: str | None, n_points: int,
+                source: str) -> Iterator[tuple[str, IntArray]]:
     """Yield ``(name, node indices)`` from MED node families, point sets and data."""
     tags = m.point_data.get("point_tags")
     if tags is not None:
@@ -614,9 +637,9 @@ def _point_sets(m, fmt, n_points, source):
                 yield name, np.flatnonzero(np.asarray(a).ravel() == i)
 
 
-def _scalar_point_data(m, n_points):
+def _scalar_point_data(m: meshio.Mesh, n_points: int) -> dict[str, FloatArray]:
     """Real scalar nodal fields of the file (e.g. a level set), by name."""
-    out = {}
+    out: dict[str, FloatArray] = {}
     for key, a in (m.point_data or {}).items():
         a = np.asarray(a)
         if key in ("point_tags", "gmsh:dim_tags") or a.dtype.kind != "f":
@@ -626,7 +649,7 @@ def _scalar_point_data(m, n_points):
     return out
 
 
-def _check_group_nodes(mesh):
+def _check_group_nodes(mesh: RawMesh) -> None:
     """MeshError if an edge or node group refers to a node the mesh does not have."""
     n = len(mesh.points)
     for kind, groups in (("edge", mesh.edge_groups), ("node", mesh.node_groups)):

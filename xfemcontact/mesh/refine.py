@@ -14,13 +14,34 @@ get shared nodes), then those inside each parent cell (QUAD8: the centre and
 the 4 mid-nodes of the edges around it; TRIA6: the 3 mid-nodes of the middle
 triangle).  Children of parent cell ``c`` are cells ``4c .. 4c+3``.
 """
+from __future__ import annotations
+
 from functools import lru_cache
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
 from xfemcontact.errors import MeshError
 from xfemcontact.fem.elements import Seg3, element
 from xfemcontact.mesh.raw import RawMesh
+
+if TYPE_CHECKING:
+    from typing import TypedDict
+
+    from numpy.typing import NDArray
+
+    from xfemcontact.fem.elements import Element
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+
+    class ChildTable(TypedDict):
+        """What :func:`_child_table` returns (see there)."""
+
+        children: IntArray      # (4, nn) indices into a parent's extended node list
+        child_xi: FloatArray    # (4, nn, 2) parent reference coordinates of the children's nodes
+        inner: FloatArray       # (ni, 2) parent reference coordinates of the inner new nodes
+        n_inner: int
 
 # Children of each parent, as the parent's reference points of their vertices,
 # counter-clockwise (a vertex is a parent node or, for QUAD8, the centre).
@@ -32,7 +53,7 @@ _CHILD_VERTICES = {
 }
 
 
-def refine_uniform(mesh: RawMesh, levels=1) -> RawMesh:
+def refine_uniform(mesh: RawMesh, levels: int = 1) -> RawMesh:
     """``mesh`` refined ``levels`` times (each time ``4 x`` the cells); ``mesh`` is unchanged.
 
     Cell groups: children inherit their parent's groups.  Edge groups: each
@@ -53,7 +74,7 @@ def refine_uniform(mesh: RawMesh, levels=1) -> RawMesh:
     return mesh
 
 
-def _refine_once(mesh):
+def _refine_once(mesh: RawMesh) -> RawMesh:
     """One level of refinement: a new RawMesh with 4x the cells of ``mesh``."""
     ref = element(mesh.cell_type)
     table = _child_table(mesh.cell_type)
@@ -82,7 +103,8 @@ def _refine_once(mesh):
         source=mesh.source if "(refined)" in mesh.source else f"{mesh.source} (refined)")
 
 
-def _split_edges(points, edge_lists, first):
+def _split_edges(points: FloatArray, edge_lists: Sequence[IntArray],
+                 first: int) -> tuple[list[IntArray], FloatArray]:
     """New nodes at the quarter points of every distinct edge.
 
     ``edge_lists``: arrays ``(k, 3)`` of SEG3 rows ``(a, b, mid)``; an edge is
@@ -109,12 +131,13 @@ def _split_edges(points, edge_lists, first):
     return np.split(near, np.cumsum([len(e) for e in edge_lists])[:-1]), coords
 
 
-def _refine_point_data(mesh, ref, table, cells, n_points):
+def _refine_point_data(mesh: RawMesh, ref: Element, table: ChildTable, cells: IntArray,
+                       n_points: int) -> dict[str, FloatArray]:
     """Nodal fields at the new nodes: each parent's interpolation at its children's nodes."""
     if not mesh.point_data:
         return {}
     shape = ref.shape(table["child_xi"].reshape(-1, 2))                # (4 nn, nn)
-    out = {}
+    out: dict[str, FloatArray] = {}
     for name, f in mesh.point_data.items():
         values = np.zeros(n_points)
         values[cells.ravel()] = np.einsum("in,en->ei", shape, f[mesh.cells]).ravel()
@@ -123,20 +146,20 @@ def _refine_point_data(mesh, ref, table, cells, n_points):
     return out
 
 
-def _inner_points(mesh, xi):
+def _inner_points(mesh: RawMesh, xi: FloatArray) -> FloatArray:
     """Images ``(ne, ni, 2)`` (m) of the reference points ``xi (ni, 2)`` in every cell."""
     shape = element(mesh.cell_type).shape(xi)                           # (ni, nn)
     return np.einsum("in,enx->eix", shape, mesh.points[mesh.cells])
 
 
-def _split_group(edges, halves):
+def _split_group(edges: IntArray, halves: IntArray) -> IntArray:
     """Rows ``(a, m, n_a)`` and ``(m, b, n_b)`` for each SEG3 row ``(a, b, m)``."""
     a, b, m = edges[:, 0], edges[:, 1], edges[:, 2]
     return np.stack([np.c_[a, m, halves[:, 0]], np.c_[m, b, halves[:, 1]]], axis=1).reshape(-1, 3)
 
 
 @lru_cache(maxsize=None)
-def _child_table(cell_type):
+def _child_table(cell_type: str) -> ChildTable:
     """Local connectivity of the 4 children in a parent's "extended" node list.
 
     The extended list of a parent is: its ``nn`` nodes, then for each edge
@@ -153,12 +176,12 @@ def _child_table(cell_type):
     verts = np.array(_CHILD_VERTICES[cell_type], float)                 # (4, nv, 2)
     mids = (verts + np.roll(verts, -1, axis=1)) / 2
     child_xi = np.concatenate([verts, mids], axis=1).reshape(-1, 2)    # (4 nn, 2)
-    inner = []
+    found: list[FloatArray] = []
     for p in child_xi:                                                   # 4 nn points, once
         if not np.any(np.all(np.isclose(known, p), axis=1)) and \
-                not any(np.allclose(q, p) for q in inner):
-            inner.append(p)
-    inner = np.array(inner)
+                not any(np.allclose(q, p) for q in found):
+            found.append(p)
+    inner = np.array(found)
     everything = np.concatenate([known, inner])
     index = [int(np.flatnonzero(np.all(np.isclose(everything, p), axis=1))[0])
              for p in child_xi]

@@ -32,6 +32,8 @@ its folder on the way up (:meth:`OutputFolder.abort`) and
 :meth:`OutputFolder.outcome` says what is left.  A signal received while the
 finished folder replaces the target is held back until the replacement is done.
 """
+from __future__ import annotations
+
 import contextlib
 import ctypes
 import errno
@@ -43,8 +45,21 @@ import shutil
 import signal
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Callable, Iterator
 
 from xfemcontact.errors import CaseError, Interrupted
+
+if TYPE_CHECKING:
+    from types import FrameType
+
+    from mpi4py import MPI
+
+    from xfemcontact.output.plotter import PlotHelper
+
+    #: a file or folder name as the callers give it
+    PathName = str | os.PathLike[str]
+    #: what ``signal.signal`` takes and returns
+    SignalHandler = Callable[[int, FrameType | None], Any] | int | signal.Handlers | None
 
 #: the signals :func:`handle_signals` turns into Interrupted
 SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
@@ -56,12 +71,12 @@ LEGACY_FILES = ("results.json", "report.md", "interface.csv", "fields.xdmf", "fi
                 "plot_status.png", "plot_convergence.png")
 #: free space below which an output location is refused at once (bytes)
 MIN_FREE_BYTES = 1 << 20
-_held = []           # signals received inside a critical section
-_critical = 0        # depth of critical sections
-_received = []       # every signal received since handle_signals()
+_held: list[int] = []          # signals received inside a critical section
+_critical = 0                  # depth of critical sections
+_received: list[int] = []      # every signal received since handle_signals()
 
 
-def _handler(signum, frame):
+def _handler(signum: int, frame: FrameType | None) -> None:
     if _received:            # a second signal while stopping: stopping already
         return
     _received.append(signum)
@@ -71,15 +86,16 @@ def _handler(signum, frame):
     raise Interrupted(signum)
 
 
-def handle_signals(reset=True):
+def handle_signals(reset: bool = True) -> dict[signal.Signals, SignalHandler]:
     """Install the SIGINT/SIGTERM/SIGHUP handlers and ignore SIGPIPE (main thread only;
     call again after PETSc starts, which installs its own); returns the previous ones.
     ``reset``: forget signals received before."""
     if reset:
         _received.clear()
         _held.clear()
-    previous = {}
-    for sig, handler in [(s, _handler) for s in SIGNALS] + [(signal.SIGPIPE, signal.SIG_IGN)]:
+    previous: dict[signal.Signals, SignalHandler] = {}
+    wanted: list[tuple[signal.Signals, SignalHandler]] = [(s, _handler) for s in SIGNALS]
+    for sig, handler in wanted + [(signal.SIGPIPE, signal.SIG_IGN)]:
         try:
             previous[sig] = signal.signal(sig, handler)
         except (ValueError, OSError):   # not the main thread: leave the defaults
@@ -87,14 +103,14 @@ def handle_signals(reset=True):
     return previous
 
 
-def restore_signals(previous):
+def restore_signals(previous: dict[signal.Signals, SignalHandler]) -> None:
     for sig, handler in previous.items():
         if handler is not None:
             signal.signal(sig, handler)
 
 
 @contextlib.contextmanager
-def critical():
+def critical() -> Iterator[None]:
     """Hold SIGINT/SIGTERM/SIGHUP back inside the block; raise Interrupted after it if one came."""
     global _critical
     _critical += 1
@@ -108,7 +124,7 @@ def critical():
 
 # --- what is ours ---------------------------------------------------------------------
 
-def ours(path):
+def ours(path: PathName) -> tuple[bool, str]:
     """``(True, "")`` if ``path`` is a result folder xfemcontact wrote and holds nothing
     else (or an empty folder), else ``(False, why)``."""
     path = Path(path)
@@ -118,7 +134,7 @@ def ours(path):
         return False, f"cannot be read ({exc.strerror})"
     if not entries:
         return True, ""
-    listed = None
+    listed: set[str] | None = None
     if MARK in entries:
         try:
             mark = json.loads((path / MARK).read_text(encoding="utf-8"))
@@ -144,7 +160,7 @@ def ours(path):
     return True, ""
 
 
-def _short(name, limit=40):
+def _short(name: str, limit: int = 40) -> str:
     name = "".join(c if c.isprintable() else "?" for c in name)
     return name if len(name) <= limit else name[:limit - 3] + "..."
 
@@ -155,7 +171,7 @@ _RENAME_NOREPLACE, _RENAME_EXCHANGE = 1, 2
 _AT_FDCWD = -100
 
 
-def _renameat2(src, dst, flags):
+def _renameat2(src: PathName, dst: PathName, flags: int) -> None:
     """``renameat2(src, dst, flags)``; raises OSError (ENOSYS/EINVAL when unsupported)."""
     try:
         libc = ctypes.CDLL(None, use_errno=True)
@@ -169,7 +185,7 @@ def _renameat2(src, dst, flags):
         raise OSError(code, os.strerror(code), str(src))
 
 
-def exchange(a, b):
+def exchange(a: PathName, b: PathName) -> None:
     """Swap the folders ``a`` and ``b`` atomically; OSError if the system cannot."""
     _renameat2(a, b, _RENAME_EXCHANGE)
 
@@ -177,7 +193,7 @@ def exchange(a, b):
 _UNSUPPORTED = (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP, errno.EOPNOTSUPP)
 
 
-def _fsync_tree(root):
+def _fsync_tree(root: PathName) -> None:
     """Flush the files of ``root`` and the folder itself to disk."""
     for dirpath, _, files in os.walk(root):
         for name in files:
@@ -190,7 +206,7 @@ def _fsync_tree(root):
         _fsync_dir(dirpath)
 
 
-def _fsync_dir(path):
+def _fsync_dir(path: PathName) -> None:
     with contextlib.suppress(OSError):
         fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
         try:
@@ -199,7 +215,7 @@ def _fsync_dir(path):
             os.close(fd)
 
 
-def _lock(path):
+def _lock(path: PathName) -> int | None:
     """An exclusive lock on folder ``path`` (an open descriptor), None if another holds it."""
     try:
         fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
@@ -213,18 +229,18 @@ def _lock(path):
     return fd
 
 
-def _unlock(fd):
+def _unlock(fd: int | None) -> None:
     if fd is not None:
         with contextlib.suppress(OSError):
             os.close(fd)
 
 
-def clean_stale(target):
+def clean_stale(target: PathName) -> list[str]:
     """Remove the temporary folders of earlier runs on ``target`` that were killed, and put
     back a previous result folder set aside by a replacement cut short.  Returns the
     names removed or restored.  A folder some running process holds (its lock) is left."""
     target = Path(target)
-    done = []
+    done: list[str] = []
     try:
         siblings = list(target.parent.iterdir()) if target.parent.is_dir() else []
     except OSError:
@@ -261,14 +277,14 @@ def clean_stale(target):
 _YOUNG = 60.0
 
 
-def _young(path):
+def _young(path: Path) -> bool:
     try:
         return time.time() - path.stat().st_mtime <= _YOUNG
     except OSError:
         return True
 
 
-def _made_by_us(path):
+def _made_by_us(path: Path) -> bool:
     """Whether a leftover folder is ours: it has our mark (complete or being written),
     is a result folder of ours, or is empty and not new."""
     try:
@@ -288,25 +304,27 @@ def _made_by_us(path):
 # --- the folder ------------------------------------------------------------------------
 
 class OutputFolder:
-    def __init__(self, path, overwrite=False, comm=None):
+    """The result folder of a run, written aside and swapped in (see the module documentation)."""
+
+    def __init__(self, path: PathName, overwrite: bool = False, comm: MPI.Comm | None = None) -> None:
         """``comm``: an mpi4py communicator (rank 0 decides, everybody learns)."""
         self.path = Path(path)
         self.rank = comm.rank if comm is not None else 0
         self.size = comm.size if comm is not None else 1
-        self.plot_helper = None  # see start_plot_helper
+        self.plot_helper: PlotHelper | None = None  # see start_plot_helper
         self.tmp = self.path.parent / f".{self.path.name}.tmp-{os.getpid()}"
         self.probe = self.path.parent / f".{self.path.name}.probe-{os.getpid()}"
-        self._made = []          # folders we created (removed again on abort)
-        self._lock = None
+        self._made: list[Path] = []          # folders we created (removed again on abort)
+        self._lock: int | None = None
         self.committed = False
-        self.cleaned = []
+        self.cleaned: list[str] = []
         problem = self._problem(overwrite) if self.rank == 0 else None
         if comm is not None and comm.size > 1:
             problem = comm.bcast(problem, root=0)
         if problem:
             raise CaseError(problem)
 
-    def _problem(self, overwrite):
+    def _problem(self, overwrite: bool) -> str | None:
         """What is wrong with the location (one line), or None; checks it can be written."""
         shown = _short(str(self.path), 200)
         if self.path.parent.is_dir():    # before anything: a replacement cut short is undone
@@ -349,16 +367,16 @@ class OutputFolder:
                         f"xfemcontact wrote (move what you keep there, or choose another -o)")
         return self._probe()
 
-    def _existing_parent(self):
+    def _existing_parent(self) -> Path:
         p = self.path.absolute().parent
         while not p.exists() and p != p.parent:
             p = p.parent
         return p
 
-    def _probe(self):
+    def _probe(self) -> str | None:
         """Create the temporary folder (and missing parents), write to it, remove it all:
         the location is writable now.  A message, or None."""
-        made = []
+        made: list[Path] = []
         try:
             parent = self._existing_parent()
             if not parent.is_dir():
@@ -392,7 +410,7 @@ class OutputFolder:
                     p.rmdir()
         return None
 
-    def _start(self):
+    def _start(self) -> None:
         if self._made:
             return
         with critical():         # what we create is recorded before a signal can stop us
@@ -406,7 +424,7 @@ class OutputFolder:
             (self.tmp / MARK).write_text('{"written_by": "xfemcontact", "files": []}\n',
                                          encoding="utf-8")
 
-    def start_plot_helper(self):
+    def start_plot_helper(self) -> PlotHelper | None:
         """Start the process that will draw the plots into this folder (rank 0; see
         :mod:`xfemcontact.output.plotter`) and return it (None elsewhere); the same
         one when called again.  Stopped by :meth:`abort`."""
@@ -416,33 +434,33 @@ class OutputFolder:
             self.plot_helper = PlotHelper.start(self.size)
         return self.plot_helper
 
-    def stop_plot_helper(self):
+    def stop_plot_helper(self) -> None:
         if self.plot_helper is not None:
             self.plot_helper.stop()
 
-    def file(self, name):
+    def file(self, name: str) -> Path:
         """Path of ``name`` inside the folder being written (created on first use)."""
         self._start()
         return self.tmp / name
 
-    def write_text(self, name, text):
+    def write_text(self, name: str, text: str) -> None:
         if self.rank == 0:
             self.file(name).write_text(text, encoding="utf-8")
 
-    def write_json(self, name, obj):
+    def write_json(self, name: str, obj: object) -> None:
         """Strict JSON: NaN and infinities (a test that selected no point) become null."""
         if self.rank == 0:
             text = json.dumps(_strict(obj), indent=1, default=_jsonable, allow_nan=False)
             self.file(name).write_text(text + "\n", encoding="utf-8")
 
-    def _write_mark(self):
+    def _write_mark(self) -> None:
         from xfemcontact import __version__
 
         files = sorted(p.name for p in self.tmp.iterdir() if p.name != MARK)
         mark = {"written_by": "xfemcontact", "version": __version__, "files": files}
         (self.tmp / MARK).write_text(json.dumps(mark) + "\n", encoding="utf-8")
 
-    def commit(self):
+    def commit(self) -> None:
         """Replace the target by the finished folder (signals held back meanwhile)."""
         if self.rank != 0:
             self.committed = True
@@ -471,7 +489,7 @@ class OutputFolder:
             self._lock = None
             shutil.rmtree(self.tmp, ignore_errors=True)     # the old results, if exchanged
 
-    def _replace(self):
+    def _replace(self) -> None:
         """The finished folder in the target's place, the old one at ``self.tmp`` (removed
         after) or set aside."""
         try:
@@ -487,7 +505,7 @@ class OutputFolder:
         _fsync_dir(self.path.parent)
         shutil.rmtree(old, ignore_errors=True)
 
-    def outcome(self):
+    def outcome(self) -> str:
         """What the target holds now, in words (for the message of an interrupted run)."""
         if self.committed:
             return f"complete results in {self.path} (the run had finished)"
@@ -495,7 +513,7 @@ class OutputFolder:
             return f"previous results in {self.path} kept"
         return "no results written"
 
-    def abort(self):
+    def abort(self) -> None:
         """Remove the temporary folder (and the parents we made); the target is untouched."""
         self.stop_plot_helper()
         if self.rank != 0 or not self._made or self.committed:
@@ -512,7 +530,7 @@ class OutputFolder:
             self._made = []
 
 
-def _strict(obj):
+def _strict(obj: Any) -> Any:
     """``obj`` with non-finite floats (Python or NumPy, in containers and arrays) as None."""
     import math
 
@@ -529,7 +547,7 @@ def _strict(obj):
     return obj
 
 
-def _jsonable(obj):
+def _jsonable(obj: object) -> Any:
     import numpy as np
 
     if isinstance(obj, np.ndarray):

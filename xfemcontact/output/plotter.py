@@ -18,16 +18,27 @@ the same either way.  The helper reads its jobs from a pipe and leaves when the
 pipe closes, so it never outlives the run; it ignores SIGINT (the run handles
 interruptions and closes the pipe).
 """
+from __future__ import annotations
+
 import os
 import pickle
 import subprocess
 import sys
+from typing import TYPE_CHECKING, Any, Iterable, Sequence
+
+if TYPE_CHECKING:
+    import threading
+
+    #: a plot to draw: (png name, name of the function of xfemcontact.post.plots, its arguments)
+    Job = tuple[str, str, tuple[Any, ...]]
+    #: a file or folder name as the callers give it
+    PathName = str | os.PathLike[str]
 
 #: seconds the run waits for the helper's answer before drawing the plots itself
 TIMEOUT = 120.0
 
 
-def spare_core(comm_size):
+def spare_core(comm_size: int) -> bool:
     """True when this machine has more cores than the run has processes."""
     return (os.cpu_count() or 1) > comm_size
 
@@ -35,19 +46,19 @@ def spare_core(comm_size):
 class PlotHelper:
     """A helper process drawing plots (see the module docstring); rank 0 only."""
 
-    def __init__(self):
-        self.proc = None
-        self.jobs = []            # the jobs sent
-        self._writers = []        # threads writing to the helper's pipe
-        self.times = {}           # the helper's CPU seconds: "import", and per PNG
+    def __init__(self) -> None:
+        self.proc: subprocess.Popen[bytes] | None = None
+        self.jobs: list[Job] = []                      # the jobs sent
+        self._writers: list[threading.Thread] = []     # threads writing to the helper's pipe
+        self.times: dict[str, float] = {}              # the helper's CPU seconds: "import", and per PNG
 
     @property
-    def sent(self):
+    def sent(self) -> list[str]:
         """Names of the PNGs sent."""
         return [name for name, _, _ in self.jobs]
 
     @classmethod
-    def start(cls, comm_size=1):
+    def start(cls, comm_size: int = 1) -> PlotHelper:
         """A started helper, or one that is not running (then :meth:`send` refuses
         and the caller draws the plots itself)."""
         helper = cls()
@@ -62,10 +73,10 @@ class PlotHelper:
         return helper
 
     @property
-    def running(self):
+    def running(self) -> bool:
         return self.proc is not None and self.proc.poll() is None
 
-    def send(self, jobs, folder_path):
+    def send(self, jobs: Sequence[Job], folder_path: PathName) -> bool:
         """Hand ``jobs`` [(png name, plots function name, args)] to the helper, to be
         written into ``folder_path``; False (nothing sent) when it is not running."""
         if not self.running or not jobs:
@@ -78,9 +89,10 @@ class PlotHelper:
         # (the interpreter lock is released while it blocks), this process goes on
         import threading
 
+        assert self.proc is not None and self.proc.stdin is not None      # running, on a pipe
         stdin = self.proc.stdin
 
-        def write():
+        def write() -> None:
             try:
                 stdin.write(data)
                 stdin.flush()
@@ -93,7 +105,7 @@ class PlotHelper:
         self.jobs += list(jobs)
         return True
 
-    def finish(self, timeout=TIMEOUT):
+    def finish(self, timeout: float = TIMEOUT) -> list[str]:
         """Wait for the helper; returns the names of the PNGs it wrote.  Its CPU times
         (import, each plot) are left in :attr:`times`."""
         if self.proc is None:
@@ -109,7 +121,7 @@ class PlotHelper:
         self.proc = None
         return [name for name in done if name in self.sent]
 
-    def stop(self):
+    def stop(self) -> None:
         """End the helper at once (abort, or after it failed)."""
         if self.proc is None:
             return
@@ -123,7 +135,7 @@ class PlotHelper:
         self.proc = None
 
 
-def run_jobs(jobs, folder_path, times=None):
+def run_jobs(jobs: Iterable[Job], folder_path: PathName, times: dict[str, float] | None = None) -> list[str]:
     """Draw ``jobs`` into ``folder_path``; returns the names written (CPU seconds of
     each into ``times``)."""
     import time
@@ -132,7 +144,7 @@ def run_jobs(jobs, folder_path, times=None):
 
     from xfemcontact.post import plots
 
-    done = []
+    done: list[str] = []
     for name, function, args in jobs:
         t0 = time.process_time()
         fig = getattr(plots, function)(*args)
@@ -144,7 +156,7 @@ def run_jobs(jobs, folder_path, times=None):
     return done
 
 
-def serve():
+def serve() -> None:
     """The helper's main: import matplotlib, then draw every batch of jobs that comes
     on stdin until it closes; answer with the list of PNGs written."""
     import signal
@@ -167,7 +179,7 @@ def serve():
 
     Figure()                             # fonts and rc parameters loaded before the data comes
     times = {"import": round(time.process_time() - t0, 4)}
-    done = []
+    done: list[str] = []
     stdin = sys.stdin.buffer
     while True:
         try:

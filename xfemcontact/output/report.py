@@ -3,8 +3,13 @@
 Written during the output phase, so its timings stop there (results.json has
 the output phase and the total).
 """
-import math
+from __future__ import annotations
 
+import math
+from typing import TYPE_CHECKING, Any, Iterable, Sequence
+
+if TYPE_CHECKING:
+    from xfemcontact.output.folder import OutputFolder
 
 FILE_NOTES = {
     "fields.xdmf": "post-processing mesh and fields (ParaView: open this file)",
@@ -20,17 +25,18 @@ FILE_NOTES = {
 }
 
 
-def _num(v, fmt=".6g"):
+def _num(v: object, fmt: str = ".6g") -> str:
     return "-" if v is None else format(v, fmt) if isinstance(v, float) else str(v)
 
 
-def _table(header, rows):
+def _table(header: Sequence[str], rows: Iterable[Sequence[object]]) -> list[str]:
     lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
     lines += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
     return lines
 
 
-def render(summary, files, case_source="", warnings=()):
+def render(summary: dict[str, Any], files: Iterable[str], case_source: str = "",
+           warnings: Iterable[str] = ()) -> str:
     """The Markdown text.  ``summary``: results.summary(); ``files``: names written."""
     s = summary
     ok = all(t["ok"] for t in s["tests"])
@@ -102,12 +108,13 @@ def render(summary, files, case_source="", warnings=()):
     return "\n".join(out) + "\n"
 
 
-def write(folder, summary, files, case_source="", warnings=()):
+def write(folder: OutputFolder, summary: dict[str, Any], files: Iterable[str], case_source: str = "",
+          warnings: Iterable[str] = ()) -> list[str]:
     """Write report.md (rank 0); returns ``["report.md"]``."""
     folder.write_text("report.md", render(summary, files, case_source, warnings))
     return ["report.md"]
 
 
-def _number(v, fmt, missing="-"):
+def _number(v: float | None, fmt: str, missing: str = "-") -> str:
     """``v`` formatted, or ``missing`` when it is None or not finite."""
     return format(v, fmt) if v is not None and math.isfinite(v) else missing

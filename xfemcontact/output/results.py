@@ -1,12 +1,22 @@
 """results.json and the field files ParaView opens."""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, Iterable
+
 import numpy as np
 
 from xfemcontact import __version__, resources, timing
 
+if TYPE_CHECKING:
+    from xfemcontact.model import Model
+    from xfemcontact.output.folder import OutputFolder
+    from xfemcontact.post.postmesh import PostMesh
+    from xfemcontact.post.testtable import Outcome
+
 MESHIO_CELL = {"QUAD8": "quad8", "TRIA6": "triangle6"}
 
 
-def summary(model, converged, reason, outcomes):
+def summary(model: Model, converged: bool, reason: int, outcomes: Iterable[Outcome]) -> dict[str, Any]:
     """The content of results.json (a dict; rank 0's values)."""
     case, solver = model.case, model.solver
     mpi = model.comm.tompi4py()
@@ -39,7 +49,8 @@ def summary(model, converged, reason, outcomes):
     }
 
 
-def geometry_summary(model):
+def geometry_summary(model: Model) -> dict[str, Any] | None:
+    """Cut cells, segments and enriched nodes over every process (None without interface)."""
     geo = model.geo
     if geo is None:
         return None
@@ -55,7 +66,7 @@ def geometry_summary(model):
                            "pushed_off_edges": mpi.allreduce(r.pushed_off)}}
 
 
-def interface_table(model):
+def interface_table(model: Model) -> dict[str, list[Any]] | None:
     """Interface point values gathered on rank 0, ordered by (input cell, end)."""
     v = model.interface_values()
     if v is None:
@@ -69,7 +80,7 @@ def interface_table(model):
     return {k: allv[k][order].tolist() for k in keys}
 
 
-def write_fields(folder, model):
+def write_fields(folder: OutputFolder, model: Model) -> tuple[PostMesh | None, list[str]]:
     """The post-processing mesh and its fields (see :mod:`xfemcontact.post.postmesh`) as
     fields.xdmf + fields.h5 (and fields.vtu, fields.med if asked).  Collective.
 
@@ -82,7 +93,7 @@ def write_fields(folder, model):
     if post is None:
         return None, []
     formats = model.case.output.formats
-    written = []
+    written: list[str] = []
     if "xdmf" in formats:
         from xfemcontact.output import xdmf
 
@@ -100,7 +111,8 @@ def write_fields(folder, model):
     return post, written
 
 
-def write_outputs(folder, model, converged, reason, outcomes, warnings=()):
+def write_outputs(folder: OutputFolder, model: Model, converged: bool, reason: int,
+                  outcomes: Iterable[Outcome], warnings: Iterable[str] = ()) -> None:
     """Every result file but results.json: fields, interface.csv, plots, report.md.
     Collective; only rank 0 writes.  ``warnings``: more lines for report.md (the
     input checks' warnings).
@@ -122,7 +134,7 @@ def write_outputs(folder, model, converged, reason, outcomes, warnings=()):
     title = case.title if converged else f"{case.title} -- NOT CONVERGED (last iterate)"
     title = title.replace("$", r"\$")         # text, not mathtext
     here = []                                  # plot jobs drawn by this process
-    if want_plots:
+    if helper is not None:                     # plots wanted (rank 0 has the helper)
         criterion = case.newton.resi_glob_rela * model.load_norm if model.solver else None
         resi_frot = case.contact.resi_frot if model.solver and model.solver.record else None
         jobs = plots.line_jobs(title, table, summary_now["residual_history"], summary_now["iterations"],
@@ -137,7 +149,7 @@ def write_outputs(folder, model, converged, reason, outcomes, warnings=()):
         with timing.step("output:interface"):
             files += interface_csv.write(folder, table)
         warnings += table.warnings
-    if want_plots:
+    if helper is not None:
         with timing.step("output:plots"):
             jobs = plots.mesh_jobs(title, post, table, case.material.E,
                                    friction=bool(model.problem is not None and model.problem.friction))

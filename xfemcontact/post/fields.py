@@ -5,7 +5,10 @@ node's DX, DY are the displacement of its own side).  Stresses are evaluated at
 quadrature points: plain cells with the standard rule, enriched cells on their
 sub-cells with the Heaviside part of each side.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
 
@@ -15,25 +18,39 @@ from xfemcontact.fem import elasticity
 from xfemcontact.xfem import geometry as xgeo
 from xfemcontact.xfem import integration
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from xfemcontact.dofs.layout import DofLayout
+    from xfemcontact.fem.elements import Element
+    from xfemcontact.mesh.plex import LocalMesh
+    from xfemcontact.xfem.geometry import Geometry
+    from xfemcontact.xfem.integration import CellPoints
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+
 
 @dataclass
 class PointValues:
     """Values at quadrature points of a set of cells."""
 
-    cells: np.ndarray    # (k,) local cell index of each row
-    x: np.ndarray        # (k, nq, 2)
-    w: np.ndarray        # (k, nq) weights (0 on padding), m^2
-    side: np.ndarray     # (k, nq) -1/+1 (interface) or 1
-    stress: np.ndarray   # (k, nq, 3) SIXX, SIYY, SIXY, Pa
-    strain: np.ndarray   # (k, nq, 3) EPXX, EPYY, 2 EPXY
+    cells: IntArray                 # (k,) local cell index of each row
+    x: FloatArray                   # (k, nq, 2)
+    w: FloatArray                   # (k, nq) weights (0 on padding), m^2
+    side: IntArray | FloatArray     # (k, nq) -1/+1 (interface) or 1
+    stress: FloatArray              # (k, nq, 3) SIXX, SIYY, SIXY, Pa
+    strain: FloatArray              # (k, nq, 3) EPXX, EPYY, 2 EPXY
 
 
-def nodal_displacement(layout, x_local):
+def nodal_displacement(layout: DofLayout, x_local: FloatArray) -> FloatArray:
     """``(n, 2)`` DX, DY at the local nodes, m."""
     return x_local[layout.u_local]
 
 
-def quadrature_stresses(mesh, geo, layout, D, x_local):
+def quadrature_stresses(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, D: FloatArray,
+                        x_local: FloatArray) -> list[PointValues]:
     """Stresses at the quadrature points of every local cell, as a list of PointValues."""
     el = mesh.element
     out = []
@@ -47,7 +64,8 @@ def quadrature_stresses(mesh, geo, layout, D, x_local):
     return out
 
 
-def cell_mean_strains(mesh, geo, layout, x_local):
+def cell_mean_strains(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout,
+                      x_local: FloatArray) -> FloatArray:
     """Area-weighted mean strain ``(nc, 3)`` (Voigt, engineering shear) of every local cell.
 
     Affine uncut cells in closed form (the mean of the reference gradients times
@@ -71,7 +89,8 @@ def cell_mean_strains(mesh, geo, layout, x_local):
     return eps
 
 
-def _plain_chunks(mesh, geo, layout, x_local):
+def _plain_chunks(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout,
+                  x_local: FloatArray) -> Iterator[tuple[IntArray, FloatArray, FloatArray, BoolArray]]:
     """Uncut, unenriched cells by batches: ``(cells, xc (k, nn, 2), ue (k, 2 nn), affine (k,))``."""
     plain = geo.plain_cells(mesh) if geo is not None else np.arange(len(mesh.cells))
     for s in range(0, len(plain), bulk.CHUNK):
@@ -80,7 +99,8 @@ def _plain_chunks(mesh, geo, layout, x_local):
         yield cells, mesh.x[mesh.cell_nodes[cells]], ue, mesh.affine[cells]
 
 
-def _enriched_strains(mesh, geo, layout, x_local):
+def _enriched_strains(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout,
+                      x_local: FloatArray) -> Iterator[tuple[CellPoints, FloatArray]]:
     """Enriched cells by batches: ``(CellPoints, strains (k, nq, 3))``, Heaviside part included."""
     if geo is None:
         return
@@ -89,12 +109,12 @@ def _enriched_strains(mesh, geo, layout, x_local):
         yield pts, elasticity.strain(enriched_gradients(mesh, geo, pts), ue)
 
 
-def _weighted_mean(w, e):
+def _weighted_mean(w: FloatArray, e: FloatArray) -> FloatArray:
     """Per cell, the mean of ``e (k, nq, 3)`` with weights ``w (k, nq)``."""
     return np.einsum("kq,kqi->ki", w, e) / w.sum(axis=1)[:, None]
 
 
-def _affine_points(el, xc, ue):
+def _affine_points(el: Element, xc: FloatArray, ue: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Points ``x (k, nq, 2)``, weights ``(k, nq)`` and strains ``(k, nq, 3)`` of
     affine cells ``xc (k, nn, 2)``: one Jacobian per cell, BLAS over the batch."""
     q, wq = el.quadrature(4)
@@ -104,7 +124,7 @@ def _affine_points(el, xc, ue):
     return x, wq[None] * det[:, None], elasticity.affine_strain(el.dshape(q), M, ue)
 
 
-def _curved_points(el, xc, ue):
+def _curved_points(el: Element, xc: FloatArray, ue: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
     """As :func:`_affine_points` for cells with a Jacobian that varies."""
     pts = integration.cell_points(el, xc, np.arange(len(xc)), np.ones(len(xc)))
     return pts.x, pts.w, elasticity.strain(pts.dNdx, ue)

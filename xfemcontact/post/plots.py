@@ -15,9 +15,29 @@ Each ``*_figure`` function returns a :class:`matplotlib.figure.Figure` built fro
 plain arrays (the columns of interface.csv, the post mesh, results.json's
 iteration record), so a plot can be redrawn from the files.
 """
+from __future__ import annotations
+
 import sys
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+    from numpy.typing import ArrayLike, NDArray
+
+    from xfemcontact.output.folder import OutputFolder
+    from xfemcontact.output.interface_csv import InterfaceTable
+    from xfemcontact.output.plotter import Job
+    from xfemcontact.post.postmesh import PostMesh
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+    #: columns of an interface table (interface.csv), or of a dense polyline, by name
+    Columns = Mapping[str, NDArray[Any]]
+    #: cell blocks of a post mesh: [(meshio cell type, connectivity (k, nn))]
+    Blocks = Sequence[tuple[str, IntArray]]
 
 #: polygon node order of each cell type (vertices and mid-edge nodes around the boundary)
 OUTLINE = {"quad8": [0, 4, 1, 5, 2, 6, 3, 7], "triangle6": [0, 3, 1, 4, 2, 5]}
@@ -29,7 +49,7 @@ SIDE_STYLE = {-1: dict(color="tab:red", lw=1.6, ls="-", label="interface, LN < 0
               1: dict(color="black", lw=1.0, ls="--", label="interface, LN > 0 side")}
 
 
-def _figure(w, h, **margins):
+def _figure(w: float, h: float, **margins: float) -> Figure:
     """A figure of ``w`` x ``h`` inches with fixed margins (``subplots_adjust``
     arguments, fractions of the figure): matplotlib's constrained layout measured
     every tick label twice and took half of the drawing time."""
@@ -40,13 +60,14 @@ def _figure(w, h, **margins):
     return fig
 
 
-def _curves(cols):
+def _curves(cols: Columns) -> list[IntArray]:
     """Row indices of each curve of an interface table."""
     return [np.nonzero(cols["curve"] == c)[0] for c in np.unique(cols["curve"])]
 
 
 # -- (a) multipliers along s ---------------------------------------------------------
-def multipliers_figure(cols, title, curves=None, fields=("LAGS_C", "LAGS_F1")):
+def multipliers_figure(cols: Columns, title: str, curves: Sequence[Columns] | None = None,
+                       fields: Sequence[str] = ("LAGS_C", "LAGS_F1")) -> Figure:
     """LAGS_C, LAGS_F1 against s.
 
     ``cols``: interface.csv columns (``s``, the fields, optional
@@ -120,7 +141,9 @@ RASTER_TRIANGLES = {("triangle6", True): [(0, 3, 5), (3, 1, 4), (5, 4, 2), (3, 4
                     ("quad8", False): [(0, 1, 2), (0, 2, 3)]}
 
 
-def deformed_figure(points, blocks, point_data, cell_data, title, field="SIYY", stress_scale=0.0):
+def deformed_figure(points: FloatArray, blocks: Blocks, point_data: Mapping[str, NDArray[Any]],
+                    cell_data: Mapping[str, Sequence[NDArray[Any]]], title: str, field: str = "SIYY",
+                    stress_scale: float = 0.0) -> Figure:
     """The deformed post mesh coloured by the cell field ``field``.
 
     ``points (np, 2)`` m; ``blocks`` [(meshio type, conn)]; ``point_data`` with
@@ -136,7 +159,9 @@ def deformed_figure(points, blocks, point_data, cell_data, title, field="SIYY", 
     return draw_deformed(deformed_data(points, blocks, point_data, cell_data, field, stress_scale), title)
 
 
-def deformed_data(points, blocks, point_data, cell_data, field="SIYY", stress_scale=0.0):
+def deformed_data(points: FloatArray, blocks: Blocks, point_data: Mapping[str, NDArray[Any]],
+                  cell_data: Mapping[str, Sequence[NDArray[Any]]], field: str = "SIYY",
+                  stress_scale: float = 0.0) -> dict[str, Any]:
     """What :func:`draw_deformed` draws, reduced to what the picture shows (NumPy
     only): the cells as polygons (small meshes) or as an RGBA image, the interface
     lines of each side, the colour range and the titles' numbers."""
@@ -147,7 +172,7 @@ def deformed_data(points, blocks, point_data, cell_data, field="SIYY", stress_sc
     xd = points + scale * u
     values = np.concatenate(cell_data[field]) if field in cell_data else None
     ncells = sum(len(conn) for _, conn in blocks)
-    d = {"field": field, "scale": scale, "umax": umax, "how_drawn": "",
+    d: dict[str, Any] = {"field": field, "scale": scale, "umax": umax, "how_drawn": "",
          "clim": _colour_limits(values, stress_scale) if values is not None and len(values) else None,
          "range": (float(values.min()), float(values.max())) if values is not None and len(values) else None}
     if ncells <= VECTOR_CELLS or values is None:
@@ -170,7 +195,7 @@ def deformed_data(points, blocks, point_data, cell_data, field="SIYY", stress_sc
     return d
 
 
-def draw_deformed(d, title):
+def draw_deformed(d: dict[str, Any], title: str) -> Figure:
     """The figure of :func:`deformed_data`'s ``d``."""
     import matplotlib.colors as mcolors
     from matplotlib.cm import ScalarMappable
@@ -221,7 +246,8 @@ def draw_deformed(d, title):
     return fig
 
 
-def _raster(xd, blocks, values, subcell=None):
+def _raster(xd: FloatArray, blocks: Blocks, values: FloatArray, subcell: Sequence[IntArray] | None = None
+            ) -> tuple[NDArray[np.float32], BoolArray | None, tuple[float, float, float, float], str]:
     """The cells drawn into an image (large meshes), NumPy only: returns the image of
     the cell values ``(H, W)`` (float32, NaN outside the mesh), the pixels of the mesh
     lines ``(H, W)`` bool or None, the extent, and the title words.  ``subcell``: per
@@ -233,7 +259,8 @@ def _raster(xd, blocks, values, subcell=None):
     ncells = sum(len(conn) for _, conn in blocks)
     cell_px = float(np.sqrt(W * H / max(ncells, 1)))            # mean cell width, pixels (bounding box)
     lines = cell_px >= RASTER_LINE_PIXELS
-    tri, cell = [], []
+    tris: list[IntArray] = []
+    cells: list[IntArray] = []
     start = 0
     for b, (t, conn) in enumerate(blocks):
         curved = np.ones(len(conn), bool) if lines else (
@@ -243,10 +270,10 @@ def _raster(xd, blocks, values, subcell=None):
             rows = np.nonzero(curved == kind)[0]
             if len(rows):
                 local = np.asarray(RASTER_TRIANGLES[t, kind])
-                tri.append(conn[rows][:, local].reshape(-1, 3))
-                cell.append(np.repeat(index[rows], len(local)))
+                tris.append(conn[rows][:, local].reshape(-1, 3))
+                cells.append(np.repeat(index[rows], len(local)))
         start += len(conn)
-    tri, cell = np.concatenate(tri), np.concatenate(cell)
+    tri, cell = np.concatenate(tris), np.concatenate(cells)
     label = rasterise((xd[tri] - lo) / px, cell, W, H)
     img = np.full((H, W), np.nan, np.float32)
     inside = label >= 0
@@ -264,22 +291,22 @@ def _raster(xd, blocks, values, subcell=None):
     return img, mask, extent, words
 
 
-def _column_min(a):
+def _column_min(a: FloatArray) -> FloatArray:
     """Column minima of ``a (n, k)`` (numpy reduces short rows slowly along axis 0)."""
     return np.array([a[:, j].min() for j in range(a.shape[1])])
 
 
-def _column_max(a):
+def _column_max(a: FloatArray) -> FloatArray:
     return np.array([a[:, j].max() for j in range(a.shape[1])])
 
 
-def _ring(k):
+def _ring(k: int) -> IntArray:
     """Index pairs (i, i + 1 mod k) around a polygon of ``k`` nodes, as an array ``(k, 2)``."""
     i = np.arange(k)
     return np.c_[i, (i + 1) % k]
 
 
-def rasterise(tri, label, W, H, chunk=1 << 21):
+def rasterise(tri: FloatArray, label: IntArray, W: int, H: int, chunk: int = 1 << 21) -> IntArray:
     """Label image ``(H, W)`` of triangles ``tri (T, 3, 2)`` given in pixel units
     (pixel ``(i, j)`` has its centre at ``(i, j)``): every pixel whose centre lies
     in triangle ``t`` gets ``label[t]`` (a later triangle wins), -1 elsewhere.
@@ -289,7 +316,7 @@ def rasterise(tri, label, W, H, chunk=1 << 21):
     box, ``chunk`` candidate pixels at a time."""
     img = np.full((H, W), -1, np.int64)
     x, y = tri[..., 0], tri[..., 1]
-    area = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0])
+    area: FloatArray = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0])
     sgn = np.where(area < 0, -1.0, 1.0)
     coef = []
     for i, j in ((0, 1), (1, 2), (2, 0)):                    # edge i -> j, inside on its left
@@ -323,7 +350,7 @@ def rasterise(tri, label, W, H, chunk=1 << 21):
     return img
 
 
-def _segment_pixels(seg, W, H):
+def _segment_pixels(seg: FloatArray, W: int, H: int) -> tuple[IntArray, IntArray]:
     """Pixels ``(ix, iy)`` along segments ``seg (S, 2, 2)`` in pixel units, one sample
     per pixel of length."""
     d = seg[:, 1] - seg[:, 0]
@@ -337,7 +364,7 @@ def _segment_pixels(seg, W, H):
     return ix, iy
 
 
-def _colour_limits(v, scale=0.0):
+def _colour_limits(v: ArrayLike, scale: float = 0.0) -> tuple[float, float]:
     """Data range, widened to +-1e-3 max(|mean|, scale) around the mean when the field
     is nearly uniform (so round-off does not paint a uniform field in every colour)."""
     lo, hi = float(np.min(v)), float(np.max(v))
@@ -348,7 +375,7 @@ def _colour_limits(v, scale=0.0):
     return mid - half, mid + half
 
 
-def _interface_edges(blocks, nfissu, side, xd):
+def _interface_edges(blocks: Blocks, nfissu: IntArray, side: int, xd: FloatArray) -> FloatArray:
     """Polylines (a, mid, b) of the cell edges lying on the interface, copies of ``side``."""
     out = []
     for t, conn in blocks:
@@ -360,7 +387,7 @@ def _interface_edges(blocks, nfissu, side, xd):
 
 
 # -- (c) statuses along s ---------------------------------------------------------------
-def status_figure(cols, title, jump_scale=0.0, friction=True):
+def status_figure(cols: Columns, title: str, jump_scale: float = 0.0, friction: bool = True) -> Figure:
     """Contact and sliding statuses along s (steps), with the gap and slip (twin axes).
 
     ``jump_scale`` (m): the gap and slip axes span at least +-1e-3 of it (a
@@ -406,7 +433,8 @@ def status_figure(cols, title, jump_scale=0.0, friction=True):
 
 
 # -- (d) convergence --------------------------------------------------------------------
-def convergence_figure(history, iterations, title, criterion=None, resi_frot=None):
+def convergence_figure(history: Sequence[float], iterations: Mapping[str, Any], title: str,
+                       criterion: float | None = None, resi_frot: float | None = None) -> Figure:
     """Newton residual norms of every solve, and the friction threshold changes.
 
     ``history``: residual norms of every Newton iterate, solve after solve
@@ -466,10 +494,10 @@ def convergence_figure(history, iterations, title, criterion=None, resi_frot=Non
     return fig
 
 
-def _solve_labels(contact, n, friction=True):
+def _solve_labels(contact: Sequence[int], n: int, friction: bool = True) -> list[str]:
     """"F<i> C<j>" (friction iteration i, contact iteration j) of each Newton solve
     ("C<j>" without friction loop)."""
-    out = []
+    out: list[str] = []
     for f, c in enumerate(contact):
         out += [(f"F{f + 1} " if friction else "") + f"C{j + 1}" for j in range(c)]
     return (out + [""] * n)[:n]
@@ -480,10 +508,12 @@ def _solve_labels(contact, n, friction=True):
 SAVE_OPTIONS = {"pil_kwargs": {"compress_level": 1}}
 
 
-def line_jobs(title, table=None, history=None, iterations=None, criterion=None, resi_frot=None):
+def line_jobs(title: str, table: InterfaceTable | None = None, history: Sequence[float] | None = None,
+              iterations: Mapping[str, Any] | None = None, criterion: float | None = None,
+              resi_frot: float | None = None) -> list[Job]:
     """The plots that need only the interface table and the iteration record, as jobs
     ``[(png name, function name, args)]`` (see :func:`run`)."""
-    jobs = []
+    jobs: list[Job] = []
     if table is not None and len(table.columns["s"]):
         jobs.append(("plot_multipliers.png", "multipliers_figure", (table.columns, title, table.curves)))
     if history is not None and iterations and len(iterations.get("newton_per_solve", [])) > 1:
@@ -492,7 +522,8 @@ def line_jobs(title, table=None, history=None, iterations=None, criterion=None, 
     return jobs
 
 
-def mesh_jobs(title, post=None, table=None, young=0.0, friction=True):
+def mesh_jobs(title: str, post: PostMesh | None = None, table: InterfaceTable | None = None,
+              young: float = 0.0, friction: bool = True) -> list[Job]:
     """The plots that need the post-processing mesh (the status plot scales its jump
     axes with the largest displacement): the deformed mesh, reduced by
     :func:`deformed_data` to what the picture shows, and the statuses."""
@@ -500,7 +531,7 @@ def mesh_jobs(title, post=None, table=None, young=0.0, friction=True):
     if post is not None and len(post.points):
         umax = float(np.nan_to_num(np.hypot(post.point_data["DX"], post.point_data["DY"])).max())
         size = float(np.max(_column_max(post.points) - _column_min(post.points))) or 1.0
-    jobs = []
+    jobs: list[Job] = []
     if table is not None and len(table.columns["s"]):
         jobs.append(("plot_status.png", "status_figure", (table.columns, title, umax, friction)))
     if post is not None:
@@ -513,13 +544,13 @@ def mesh_jobs(title, post=None, table=None, young=0.0, friction=True):
 ORDER = ("plot_multipliers.png", "plot_status.png", "plot_deformed.png", "plot_convergence.png")
 
 
-def run(folder, jobs):
+def run(folder: OutputFolder, jobs: Sequence[Job]) -> list[str]:
     """Draw ``jobs`` into ``folder`` (an OutputFolder); returns the names written."""
     if not jobs:
         return []
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
-    written = []
+    written: list[str] = []
     for name, function, args in jobs:
         try:
             fig = globals()[function](*args)
@@ -535,8 +566,10 @@ def run(folder, jobs):
     return written
 
 
-def write(folder, title, post=None, table=None, history=None, iterations=None,
-          criterion=None, resi_frot=None, young=0.0, friction=True):
+def write(folder: OutputFolder, title: str, post: PostMesh | None = None, table: InterfaceTable | None = None,
+          history: Sequence[float] | None = None, iterations: Mapping[str, Any] | None = None,
+          criterion: float | None = None, resi_frot: float | None = None, young: float = 0.0,
+          friction: bool = True) -> list[str]:
     """Draw every plot the data allows into ``folder`` (rank 0); returns the names.
 
     ``young`` (Pa) sets the stress scale of the colour range (E max|u| / size).

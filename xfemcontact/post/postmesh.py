@@ -27,7 +27,10 @@ Every process computes its own cells; rank 0 gathers them and numbers cells by
 (block, input cell, sub-cell) and points by first use, so the files do not
 depend on the number of processes.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Iterator, cast
 
 import numpy as np
 
@@ -38,6 +41,18 @@ from xfemcontact.fem.elements import element
 from xfemcontact.post import fields
 from xfemcontact.xfem import geometry as xgeo
 from xfemcontact.xfem.cut import segment_curve
+
+if TYPE_CHECKING:
+    import meshio
+    from numpy.typing import ArrayLike, NDArray
+
+    from xfemcontact.model import Model
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+    #: arrays by name, of one length (rows, points or samples)
+    Columns = dict[str, NDArray[Any]]
 
 MESHIO_CELL = {"QUAD8": "quad8", "TRIA6": "triangle6"}
 #: interface points of a cut-cell segment: its ends, mid-point and quarter points
@@ -53,12 +68,12 @@ CELL_FIELDS = ("SIXX", "SIYY", "SIXY", "EPXX", "EPYY", "EPXY", "side", "cell", "
 class PostMesh:
     """The post-processing mesh of the whole model (rank 0)."""
 
-    points: np.ndarray      # (np, 2) m
-    blocks: list            # [(meshio cell type, connectivity (k, nn))], quad8 before triangle6
-    point_data: dict        # name -> (np,)
-    cell_data: dict         # name -> [(k,) per block]
+    points: FloatArray                          # (np, 2) m
+    blocks: list[tuple[str, IntArray]]          # [(meshio cell type, connectivity (k, nn))], quad8 before triangle6
+    point_data: dict[str, NDArray[Any]]         # name -> (np,)
+    cell_data: dict[str, list[NDArray[Any]]]    # name -> [(k,) per block]
 
-    def point_fields(self):
+    def point_fields(self) -> Iterator[tuple[str, NDArray[Any]]]:
         """``(name, array)`` of the point fields of the XDMF and VTU files: those of
         :attr:`point_data`, then ``displacement`` (DX, DY, 0) for ParaView."""
         yield from self.point_data.items()
@@ -67,7 +82,7 @@ class PostMesh:
         disp[:, 0], disp[:, 1] = pd["DX"], pd["DY"]
         yield "displacement", disp
 
-    def to_meshio(self, med=False):
+    def to_meshio(self, med: bool = False) -> meshio.Mesh:
         """A meshio.Mesh: 3-D points and a ``displacement`` vector (for ParaView), or for
         MED (``med``) 2-D points and the node groups NFISSU, NM (LN < 0 copies) and NP."""
         import meshio
@@ -88,7 +103,7 @@ class PostMesh:
 
 
 # -- one process's cells ---------------------------------------------------------
-def _pieces(model, xl):
+def _pieces(model: Model, xl: FloatArray) -> Columns:
     """The post cells of this process, as padded arrays.
 
     Returns a dict: ``cell (m,)`` input ids, ``sub (m,)`` sub-cell index (-1
@@ -110,7 +125,7 @@ def _pieces(model, xl):
                   side=side_u, sig=sig[uncut], eps=eps[uncut])]
     if cut.any():
         parts.append(_subcell_pieces(model, xl))
-    out = {}
+    out: Columns = {}
     for k in parts[0]:
         arrs = [p[k] for p in parts]
         if arrs[0].ndim > 1:         # pad nodes to the parent's count (sub-cells have 6)
@@ -121,7 +136,7 @@ def _pieces(model, xl):
     return out
 
 
-def _subcell_pieces(model, xl):
+def _subcell_pieces(model: Model, xl: FloatArray) -> Columns:
     """Sub-triangles of the cut cells with their mean stresses and strains."""
     mesh, geo, layout = model.mesh, model.geo, model.layout
     el = mesh.element
@@ -145,7 +160,7 @@ def _subcell_pieces(model, xl):
                 sig=sig[live], eps=eps[live])
 
 
-def nodal_displacement(model, xl, cells, side):
+def nodal_displacement(model: Model, xl: FloatArray, cells: IntArray, side: ArrayLike) -> FloatArray:
     """Displacement ``(k, nn, 2)`` (m) at the nodes of local ``cells (k,)`` on side
     ``side (k,)``: the shape functions are 1 at their own node, so ``u_a + psi_a h_a``."""
     mesh, geo, layout = model.mesh, model.geo, model.layout
@@ -158,7 +173,8 @@ def nodal_displacement(model, xl, cells, side):
     return u
 
 
-def displacement_at(model, xl, cells, xi, side):
+def displacement_at(model: Model, xl: FloatArray, cells: IntArray, xi: FloatArray,
+                    side: ArrayLike) -> FloatArray:
     """Displacement ``(k, p, 2)`` (m) at parent reference points ``xi (k, p, 2)`` of
     local ``cells (k,)``, on side ``side (k,)``:
     ``u = sum N_a a_a + sum psi_a N_a h_a``, ``psi_a = H(side) - H(node a)``."""
@@ -173,7 +189,7 @@ def displacement_at(model, xl, cells, xi, side):
     return u
 
 
-def interface_samples(model):
+def interface_samples(model: Model) -> Columns | None:
     """Multipliers and statuses at the interface points of every local segment
     (its ends, mid-point and quarter points).  Collective (reads remote dofs).
 
@@ -195,7 +211,7 @@ def interface_samples(model):
 
 
 # -- the whole mesh on rank 0 ----------------------------------------------------------
-def build(model):
+def build(model: Model) -> PostMesh | None:
     """The PostMesh on rank 0, None elsewhere.  Collective."""
     xl = model.local_solution()
     payload = (_pieces(model, xl), interface_samples(model), _cut_cell_nodes(model))
@@ -206,19 +222,20 @@ def build(model):
         return None
     del payload
 
-    def joined(arrays):
+    def joined(arrays: list[NDArray[Any]]) -> NDArray[Any]:
         return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
 
     pieces = {k: joined([p[0][k] for p in parts]) for k in parts[0][0]}
     samples = None
     if parts[0][1] is not None:
-        samples = {k: joined([p[1][k] for p in parts]) for k in parts[0][1]}
+        every = cast("list[Columns]", [p[1] for p in parts])   # every process has samples, or none
+        samples = {k: joined([v[k] for v in every]) for k in parts[0][1]}
     near = np.unique(np.concatenate([p[2] for p in parts]))
     del parts
     return assemble(pieces, samples, model.mesh.cell_type, near)
 
 
-def _cut_cell_nodes(model):
+def _cut_cell_nodes(model: Model) -> IntArray:
     """Input ids of the nodes of this process's cut cells: the only input nodes that
     sub-cell nodes can coincide with."""
     geo, mesh = model.geo, model.mesh
@@ -227,7 +244,8 @@ def _cut_cell_nodes(model):
     return np.unique(mesh.node_ids[mesh.cell_nodes[geo.cell_side == 0]])
 
 
-def assemble(pieces, samples, cell_type, near=None):
+def assemble(pieces: Columns, samples: Columns | None, cell_type: str,
+             near: IntArray | None = None) -> PostMesh:
     """Number cells and points of the gathered ``pieces`` (see :func:`_pieces`);
     ``near``: input node ids that sub-cell nodes may coincide with (all if None)."""
     tri = element("TRIA6")
@@ -264,7 +282,8 @@ def assemble(pieces, samples, cell_type, near=None):
         _set_interface_values(pd, points, ploc, on_itf, samples)
     conn = np.full(slot.shape, -1, np.int64)
     conn[slot] = slot_point
-    blocks, cd = [], {k: [] for k in CELL_FIELDS}
+    blocks: list[tuple[str, IntArray]] = []
+    cd: dict[str, list[NDArray[Any]]] = {k: [] for k in CELL_FIELDS}
     names = [MESHIO_CELL[cell_type], "triangle6"] if cell_type == "QUAD8" else [MESHIO_CELL[cell_type]]
     for b, name in enumerate(names):
         rows = block == b
@@ -282,7 +301,7 @@ def assemble(pieces, samples, cell_type, near=None):
     return PostMesh(points, blocks, pd, cd)
 
 
-def _sorted(*keys):
+def _sorted(*keys: NDArray[Any]) -> bool:
     """True when rows are in lexicographic order of ``keys`` (first key first)."""
     if len(keys[0]) < 2:
         return True
@@ -295,7 +314,7 @@ def _sorted(*keys):
     return True
 
 
-def slot_locations(xs, node, near=None):
+def slot_locations(xs: FloatArray, node: IntArray, near: IntArray | None = None) -> IntArray:
     """Location label ``(S,)`` of every cell slot, numbered by first appearance.
 
     Slots with an input node id (``node >= 0``) are that node; the others (sub-cell
@@ -329,7 +348,7 @@ def slot_locations(xs, node, near=None):
     return rank[inv]
 
 
-def _diagonal(xs):
+def _diagonal(xs: FloatArray) -> float:
     """Bounding-box diagonal of ``xs (S, 2)``, 1 if empty or a single point."""
     if len(xs) == 0:
         return 1.0
@@ -337,7 +356,7 @@ def _diagonal(xs):
     return float(np.hypot(*(np.ptp(xs[:, i]) for i in range(2)))) or 1.0
 
 
-def merge_points(xs, diag=None):
+def merge_points(xs: FloatArray, diag: float | None = None) -> IntArray:
     """Label ``(S,)`` of each point of ``xs (S, 2)``: equal for points closer than
     MERGE_TOL times the bounding-box diagonal, numbered by first appearance."""
     from scipy.sparse import coo_matrix
@@ -357,7 +376,8 @@ def merge_points(xs, diag=None):
     return rank[inv]
 
 
-def _set_interface_values(pd, points, ploc, on_itf, samples):
+def _set_interface_values(pd: dict[str, NDArray[Any]], points: FloatArray, ploc: IntArray, on_itf: BoolArray,
+                          samples: Columns) -> None:
     """LAGS_C, LAGS_F1 and statuses at the interface points (every copy), from the
     sample of the lowest input cell at that location; samples at no post-mesh
     point (quarter points of segments lying on cell edges) are ignored."""
