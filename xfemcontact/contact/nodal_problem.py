@@ -102,7 +102,12 @@ class NodalContactProblem(InterfaceProblem):
         self._dof_id = ids                       # input id of each slot's dof (partition-free order)
         self._mark = ((ids * 2654435761) % 4294967296) / 4294967296.0 + 0.5
         self._seen_contact, self._seen_slip = set(), set()
-        self._accelerated = ThresholdUpdate(
+        self._accelerated = self._threshold_update()
+        self._h0 = None                          # jump dofs at the start of the step (None: 0)
+        self.carried_thresholds = False          # thresholds of a previous step's solution
+
+    def _threshold_update(self):
+        return ThresholdUpdate(
             lambda a, b: self._mpi.allreduce(float((a[self._once] * b[self._once]).sum())))
 
     # -- set-up ---------------------------------------------------------------------
@@ -208,9 +213,15 @@ class NodalContactProblem(InterfaceProblem):
         the values they come from: ``(slip, h, lam, T, active, bound)``."""
         ve, h, lam, T = self._values(x)
         D = np.where(self.slot & (self._D > 0), self._D, 1.0)
-        gt = self._assembled(np.zeros(lam.shape), np.einsum("kmd,kd->km", self._Bt, h))[1] / D
         active, bound = self._bounds()
-        tol = nodal.ROUNDOFF * self._max(np.where(active, gt, 0.0))
+        if self._h0 is None:
+            gt = self._assembled(np.zeros(lam.shape), np.einsum("kmd,kd->km", self._Bt, h))[1] / D
+            tol = nodal.ROUNDOFF * self._max(np.where(active, gt, 0.0))
+        else:       # the slip increment of the step; round-off on the scale of the whole slip
+            gt = self._assembled(np.zeros(lam.shape), np.einsum("kmd,kd->km", self._Bt, h - self._h0))[1] / D
+            total = self._assembled(np.zeros(lam.shape), np.einsum("kmd,kd->km", self._Bt, h))[1] / D
+            tol = nodal.ROUNDOFF * max(self._max(np.where(active, gt, 0.0)),
+                                       self._max(np.where(active, total, 0.0)))
         slip = self._no_cycle(self.slip, nodal.friction_status(self.slip, active, T, gt, bound, tol),
                               self._seen_slip)
         return slip, h, lam, T, active, bound
@@ -231,7 +242,8 @@ class NodalContactProblem(InterfaceProblem):
         Bn, Bt = self._Bn, self._Bt
         Rh = np.einsum("km,kmd->kd", t["cn"], Bn) + np.einsum("km,kmd->kd", t["ct"], Bt)
         Rl = t["wn"] * np.einsum("kmd,kd->km", Bn, h) + t["rl"]
-        RT = t["wt"] * np.einsum("kmd,kd->km", Bt, h) + t["rT"]
+        ht = h if self._h0 is None else h - self._h0          # friction: the step's increment
+        RT = t["wt"] * np.einsum("kmd,kd->km", Bt, ht) + t["rT"]
         R = np.concatenate([Rh, Rl, RT], axis=1)
         live = self.indices >= 0
         f.setValues(self.indices[live].astype(PETSc.IntType), R[live], addv=PETSc.InsertMode.ADD_VALUES)
@@ -393,6 +405,47 @@ class NodalContactProblem(InterfaceProblem):
 
     def largest_threshold(self) -> float:
         return self._max(self.s)
+
+    # -- load steps -----------------------------------------------------------------
+    def begin_step(self, x, first: bool) -> None:
+        """A new load step from the converged state ``x`` of the previous one.  Statuses,
+        thresholds and dependent-vertex modes carry over; friction becomes incremental
+        (the slip of the step is measured from the jump of ``x``); the thresholds are
+        the contact pressures of ``x``.  ``first``: the first step (nothing changes)."""
+        self._seen_contact.clear()
+        self._seen_slip.clear()
+        self._accelerated = self._threshold_update()
+        if first:
+            return
+        ve, h, lam, T = self._values(x)
+        self._h0 = h.copy()
+        if self.friction and not self.unbounded:
+            self.s = np.where(self.slot, nodal.threshold(lam, self._max(lam)), 0.0)
+            self._set_rho_T(self._max(self.s))
+            self.carried_thresholds = True
+
+    def state(self) -> dict:
+        """Everything that carries from one step to the next (arrays and numbers), for
+        the step cutting and the checkpoints; :meth:`set_state` puts it back."""
+        return {"chi": self.chi.copy(), "slip": self.slip.copy(), "s": self.s.copy(),
+                "extrapolated": self.extrapolated.copy(), "unbounded": self.unbounded,
+                "free_start": self.free_start, "rho_T": self.rho_T,
+                "h0": None if self._h0 is None else self._h0.copy(),
+                "carried_thresholds": self.carried_thresholds}
+
+    def set_state(self, st: dict) -> None:
+        self.restore((st["chi"], st["slip"], st["s"], st["extrapolated"], bool(st["unbounded"]),
+                      bool(st["free_start"])))
+        self.rho_T = None if st["rho_T"] is None else float(st["rho_T"])
+        self._h0 = None if st["h0"] is None else np.array(st["h0"], dtype=float)
+        self.carried_thresholds = bool(st["carried_thresholds"])
+        self._seen_contact.clear()
+        self._seen_slip.clear()
+        self._accelerated = self._threshold_update()
+
+    def status_changes(self, st: dict) -> int:
+        """Dofs (all processes) whose contact or friction status differs from ``st``."""
+        return self._count((self.chi != st["chi"]) | (self.slip != st["slip"]))
 
     # -- results --------------------------------------------------------------------
     def vertex_values(self, x, thresholds_from_x=False):

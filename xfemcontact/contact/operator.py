@@ -87,6 +87,8 @@ class InterfaceOperator:
     def terms(self, x, state):
         """Point terms of the law at ``x`` for the statuses and thresholds of ``state``."""
         g, ut, lam, Lam = self.point_fields(self.element_values(x))
+        if state.ut0 is not None:              # friction counts the slip of the load step
+            ut = ut - state.ut0
         s, held = state.s, state.held
         if state.unbounded:
             # held in stick, the solution does not depend on s; mu s = -1 Pa makes
