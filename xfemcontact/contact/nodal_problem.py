@@ -104,6 +104,7 @@ class NodalContactProblem(InterfaceProblem):
         self._seen_contact, self._seen_slip = set(), set()
         self._accelerated = self._threshold_update()
         self._h0 = None                          # jump dofs at the start of the step (None: 0)
+        self._floor_lam = self._floor_gap = 0.0  # round-off scales of the previous steps
         self.carried_thresholds = False          # thresholds of a previous step's solution
 
     def _threshold_update(self):
@@ -170,6 +171,15 @@ class NodalContactProblem(InterfaceProblem):
 
     def _max(self, a):
         return self._mpi.allreduce(float(np.abs(a).max(initial=0.0)), op=MPI.MAX)
+
+    def _lam_scale(self, lam):
+        """The pressure scale of the round-off tests: max |LAGS_C| now, and after the
+        first load step at least the largest of the previous steps (at a zero load
+        the pressures are round-off, and statuses must not follow it)."""
+        return max(self._max(lam), self._floor_lam)
+
+    def _gap_scale(self, h):
+        return self._max(np.einsum("kvd,kd->kv", np.abs(self._An), np.abs(h)) / np.maximum(self._Wv, 1e-300))
 
     # -- cycles ---------------------------------------------------------------------
     def _fingerprint(self, values):
@@ -293,9 +303,8 @@ class NodalContactProblem(InterfaceProblem):
         ve, h, lam, T = self._values(x)
         D = np.where(self.slot & (self._D > 0), self._D, 1.0)
         gn = self._assembled(np.einsum("kmd,kd->km", self._Bn, h), np.zeros(lam.shape))[0] / D
-        tol_lam = nodal.ROUNDOFF * self._max(lam)
-        tol_gap = nodal.ROUNDOFF * self._max(np.einsum("kvd,kd->kv", np.abs(self._An), np.abs(h))
-                                             / np.maximum(self._Wv, 1e-300))
+        tol_lam = nodal.ROUNDOFF * self._lam_scale(lam)
+        tol_gap = nodal.ROUNDOFF * max(self._gap_scale(h), self._floor_gap)
         new = np.where(self.slot, nodal.contact_status(self.chi, lam, gn, tol_lam, tol_gap), 0)
         self._seen_contact.add(self._fingerprint(self.chi))
         new = self._no_cycle(self.chi, new, self._seen_contact)
@@ -339,7 +348,7 @@ class NodalContactProblem(InterfaceProblem):
         """At a threshold update: dependent vertices switched to their convex
         combination go back to the extrapolation where it is admissible now, so that
         a switch made far from the solution does not outlive it."""
-        back = ~self.extrapolated & ~self._inadmissible(lam, T, nodal.ROUNDOFF * self._max(lam))
+        back = ~self.extrapolated & ~self._inadmissible(lam, T, nodal.ROUNDOFF * self._lam_scale(lam))
         if back.any():
             self.extrapolated |= back
             self._functions()
@@ -350,7 +359,7 @@ class NodalContactProblem(InterfaceProblem):
         ve, h, lam, T = self._values(x)
         self._seen_contact.clear()
         self._seen_slip.clear()
-        target = np.where(self.slot, nodal.threshold(lam, self._max(lam)), 0.0)
+        target = np.where(self.slot, nodal.threshold(lam, self._lam_scale(lam)), 0.0)
         if self.unbounded or not np.any(self._mpi.allgather(bool(np.count_nonzero(self.s)))):
             self.s = target                            # the first thresholds
         else:
@@ -378,8 +387,8 @@ class NodalContactProblem(InterfaceProblem):
         lam = self._values(x)[2]
         if first:
             return 1.0
-        target = np.where(self.slot, nodal.threshold(lam, self._max(lam)), 0.0)
-        num, den = self._max(np.where(self.slot, target - self.s, 0.0)), self._max(lam)
+        target = np.where(self.slot, nodal.threshold(lam, self._lam_scale(lam)), 0.0)
+        num, den = self._max(np.where(self.slot, target - self.s, 0.0)), self._lam_scale(lam)
         return num / den if den > 0 else (0.0 if num == 0 else np.inf)
 
     def has_thresholds(self) -> bool:
@@ -419,8 +428,10 @@ class NodalContactProblem(InterfaceProblem):
             return
         ve, h, lam, T = self._values(x)
         self._h0 = h.copy()
+        self._floor_lam = max(self._floor_lam, self._max(lam))
+        self._floor_gap = max(self._floor_gap, self._gap_scale(h))
         if self.friction and not self.unbounded:
-            self.s = np.where(self.slot, nodal.threshold(lam, self._max(lam)), 0.0)
+            self.s = np.where(self.slot, nodal.threshold(lam, self._lam_scale(lam)), 0.0)
             self._set_rho_T(self._max(self.s))
             self.carried_thresholds = True
 
@@ -431,7 +442,8 @@ class NodalContactProblem(InterfaceProblem):
                 "extrapolated": self.extrapolated.copy(), "unbounded": self.unbounded,
                 "free_start": self.free_start, "rho_T": self.rho_T,
                 "h0": None if self._h0 is None else self._h0.copy(),
-                "carried_thresholds": self.carried_thresholds}
+                "carried_thresholds": self.carried_thresholds,
+                "floors": np.array([self._floor_lam, self._floor_gap])}
 
     def set_state(self, st: dict) -> None:
         self.restore((st["chi"], st["slip"], st["s"], st["extrapolated"], bool(st["unbounded"]),
@@ -439,6 +451,7 @@ class NodalContactProblem(InterfaceProblem):
         self.rho_T = None if st["rho_T"] is None else float(st["rho_T"])
         self._h0 = None if st["h0"] is None else np.array(st["h0"], dtype=float)
         self.carried_thresholds = bool(st["carried_thresholds"])
+        self._floor_lam, self._floor_gap = (float(v) for v in st["floors"])
         self._seen_contact.clear()
         self._seen_slip.clear()
         self._accelerated = self._threshold_update()
@@ -461,7 +474,7 @@ class NodalContactProblem(InterfaceProblem):
         # the traction the equilibrium holds: the dof in stick, mu |s| p in slip
         T = np.where(active & (self.slip != 0), np.where(bounded, bound, 0.0) * self.slip, T)
         if thresholds_from_x:
-            s = np.where(self.slot, nodal.threshold(lam, self._max(lam)), 0.0)
+            s = np.where(self.slot, nodal.threshold(lam, self._lam_scale(lam)), 0.0)
             bounded = self.slot & (s != 0) & self.friction
         Tv = self._Tv
         uses = np.abs(Tv) > 0

@@ -1,0 +1,156 @@
+"""The loads of a case at any instant, applied to a :class:`~xfemcontact.model.Model`.
+
+The model assembles its bulk system once, with the loads of the last instant.
+At another instant ``t`` the imposed displacements, tractions and body forces
+take their values at ``t`` (formulas of x, y, t times their FONC_MULT function,
+see :class:`~xfemcontact.case.functions.TimeFormula`), and
+
+    f0(t) = K_fc u_c(t) - F_ext(t)
+
+(the forces of the imposed displacements minus the external forces) is rebuilt
+from the element stiffness of the cells that carry an imposed component (kept
+from the first call: the boundary cells only) and from the loads, the ones that
+do not depend on time computed once.  The reference of Newton's relative
+criterion is |f0(t)|; where it is zero (every load back to zero) the last
+non-zero one is used, as code_aster does.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from xfemcontact.assembly import bulk, system
+from xfemcontact.dofs import constraints
+from xfemcontact.fem import elasticity
+from xfemcontact.xfem import geometry as xgeo
+
+
+def case_at(case, t):
+    """``case`` with its loads (imposed displacements, tractions, body force) at ``t``."""
+    def comps(d):
+        return {k: f.at(t) for k, f in d.items()}
+
+    dirichlet = tuple(dataclasses.replace(d, components=comps(d.components)) for d in case.dirichlet)
+    traction = tuple(dataclasses.replace(tr, force=None if tr.force is None else comps(tr.force),
+                                         pressure=None if tr.pressure is None else tr.pressure.at(t))
+                     for tr in case.traction)
+    body = case.body_force
+    if body is not None:
+        body = dataclasses.replace(body, FX=body.FX.at(t), FY=body.FY.at(t))
+    return dataclasses.replace(case, dirichlet=dirichlet, traction=traction, body_force=body)
+
+
+def _uses_time(spec):
+    formulas = [spec.pressure] if getattr(spec, "pressure", None) is not None else []
+    formulas += list((getattr(spec, "force", None) or {}).values())
+    if hasattr(spec, "FX"):
+        formulas += [spec.FX, spec.FY]
+    return any(f.uses_time for f in formulas)
+
+
+class Loading:
+    """The loads of ``model.case`` at any instant (see the module documentation)."""
+
+    def __init__(self, model):
+        self.model = model
+        self.case = model.case
+        mesh, geo, layout = model.mesh, model.geo, model.layout
+        self._lift_blocks = self._lift_matrices(model)
+        self._constant = {}                 # load index -> its (time-independent) local forces
+        self.reference = None               # last non-zero |f0|
+        self.t = None
+        x = mesh.x
+        self._values_fn = lambda nodes, f: f(x=x[nodes, 0], y=x[nodes, 1])
+        self._mesh, self._geo, self._layout = mesh, geo, layout
+
+    @staticmethod
+    def _lift_matrices(model):
+        """Element matrices and local dofs of the cells with an imposed DX or DY."""
+        mesh, geo, layout = model.mesh, model.geo, model.layout
+        imposed = layout.fixed[:, :2].any(axis=1)
+        touched = imposed[mesh.cell_nodes].any(axis=1)
+        plain = geo.plain_cells(mesh) if geo is not None else np.arange(len(mesh.cells))
+        blocks = []
+        cells = plain[touched[plain]]
+        if len(cells):
+            K = bulk.PlainStiffness(mesh.element, model.D)(mesh.x[mesh.cell_nodes[cells]],
+                                                           mesh.affine[cells])
+            blocks.append((bulk.plain_batch(mesh, layout, cells), K))
+        if geo is not None:
+            enriched = geo.enriched_cells(mesh)
+            cells = enriched[touched[enriched]]
+            if len(cells):
+                C = elasticity.tensor(model.D)
+                for pts in xgeo.cell_points(mesh, geo, cells):
+                    K = elasticity.stiffness(system.enriched_gradients(mesh, geo, pts), pts.w, C)
+                    blocks.append((bulk.enriched_batch(mesh, layout, pts.cells), K))
+        return blocks
+
+    def _external(self, case_t):
+        """Local array of the external forces at the instant of ``case_t``."""
+        mesh, geo, layout = self._mesh, self._geo, self._layout
+        f = layout.local_array()
+        specs = [("body", case_t.body_force)] if case_t.body_force is not None else []
+        specs += [(i, tr) for i, tr in enumerate(case_t.traction)]
+        for key, spec in specs:
+            if key in self._constant:
+                f += self._constant[key]
+                continue
+            part = layout.local_array()
+            if key == "body":
+                system.add_body_forces(mesh, geo, layout, spec, part)
+            else:
+                system.add_tractions(mesh, geo, layout, (spec,), part)
+            if not _uses_time(spec):
+                self._constant[key] = part
+            f += part
+        return f
+
+    def apply(self, t):
+        """Put the loads of instant ``t`` into the model: ``x_bc``, ``f0``, ``load_norm``."""
+        model, layout = self.model, self._layout
+        case_t = case_at(self.case, t)
+        fixed, values = constraints.fixed_components(self._mesh, case_t, self._geo, model.law,
+                                                     self._values_fn)
+        x_bc = system.bc_array(layout, fixed, values)
+        lift = layout.local_array()
+        for batch, K in self._lift_blocks:
+            bulk.add_lift(lift, batch, K, x_bc)
+        f0 = system.local_to_global(layout, lift - self._external(case_t))
+        norm = f0.norm()
+        if norm > 0:
+            self.reference = norm
+        model.set_loads(x_bc, f0, norm if norm > 0 or self.reference is None else self.reference)
+        self.t = t
+
+    def path(self, t):
+        """The load path at ``t``: {label: mean value over the nodes of the load's groups}
+        (all processes), for the plot of the loads against time."""
+        mesh = self._mesh
+        mpi = self.model.comm.tompi4py()
+        x = mesh.x
+        out = {}
+
+        def mean(label, nodes, f):
+            own = nodes[mesh.node_owned[nodes]]
+            local = (float(np.sum(f.at(t)(x=x[own, 0], y=x[own, 1]))), len(own))
+            total, count = np.sum(mpi.allgather(local), axis=0)
+            if count:
+                out[label] = float(total / count)
+
+        for d in self.case.dirichlet:
+            nodes = np.unique(np.concatenate([mesh.group_nodes(g) for g in d.groups]))
+            for comp, f in d.components.items():
+                mean(f"{d.key}.{comp} ({', '.join(d.groups)})", nodes, f)
+        for tr in self.case.traction:
+            nodes = np.unique(np.concatenate([mesh.group_nodes(g) for g in tr.groups]))
+            items = {"PRES": tr.pressure} if tr.pressure is not None else tr.force
+            for comp, f in items.items():
+                mean(f"{tr.key}.{comp} ({', '.join(tr.groups)})", nodes, f)
+        body = self.case.body_force
+        if body is not None:
+            nodes = np.arange(len(x))
+            for comp in ("FX", "FY"):
+                mean(f"body_force.{comp}", nodes, getattr(body, comp))
+        return out
