@@ -125,6 +125,10 @@ def run(case_path, outdir=None, overwrite=False, restart=False, quiet=False):
             raw = preflight.build_mesh(case, mpi)
         with timing.phase("checks"):
             pre = preflight.preflight(case, raw, mpi)
+            if case.instants.given:
+                from xfemcontact.history.loading import check_instants
+
+                check_instants(case, raw, mpi)
         warn(comm, *pre.warnings)
         if not pre.interface:
             case = dataclasses.replace(case, interface=None)

@@ -49,6 +49,9 @@ from xfemcontact.contact.threshold import ThresholdUpdate
 #: a weight below this (in absolute value) is taken as zero when looking for
 #: dependent vertices (extrapolations with a negative weight)
 NEGATIVE = -1e-14
+#: after the first load step, pressures below this fraction of the largest one of the
+#: previous steps are zero (see NodalContactProblem._lam_zero)
+HISTORY_ZERO = 1e-9
 
 
 class NodalContactProblem(InterfaceProblem):
@@ -173,10 +176,24 @@ class NodalContactProblem(InterfaceProblem):
         return self._mpi.allreduce(float(np.abs(a).max(initial=0.0)), op=MPI.MAX)
 
     def _lam_scale(self, lam):
-        """The pressure scale of the round-off tests: max |LAGS_C| now, and after the
-        first load step at least the largest of the previous steps (at a zero load
-        the pressures are round-off, and statuses must not follow it)."""
+        """The pressure scale: max |LAGS_C| now, and after the first load step at least
+        the largest of the previous steps."""
         return max(self._max(lam), self._floor_lam)
+
+    def _lam_zero(self, lam):
+        """Pressures at most this (Pa) are zero in the status and threshold tests: the
+        round-off of max |LAGS_C| now, and after the first load step HISTORY_ZERO times
+        the largest pressure of the previous steps (a load back to zero leaves
+        pressures of the round-off of the earlier ones, amplified by the conditioning:
+        statuses, thresholds and the ratio LAGS_F1 must not follow them)."""
+        return max(nodal.ROUNDOFF * self._max(lam), HISTORY_ZERO * self._floor_lam)
+
+    def _threshold(self, lam):
+        """Thresholds s = min(LAGS_C, 0), zero where |LAGS_C| <= :meth:`_lam_zero`."""
+        if self._floor_lam == 0.0:
+            return nodal.threshold(lam, self._max(lam))
+        s = np.minimum(lam, 0.0)
+        return np.where(np.abs(s) <= self._lam_zero(lam), 0.0, s)
 
     def _gap_scale(self, h):
         return self._max(np.einsum("kvd,kd->kv", np.abs(self._An), np.abs(h)) / np.maximum(self._Wv, 1e-300))
@@ -303,7 +320,7 @@ class NodalContactProblem(InterfaceProblem):
         ve, h, lam, T = self._values(x)
         D = np.where(self.slot & (self._D > 0), self._D, 1.0)
         gn = self._assembled(np.einsum("kmd,kd->km", self._Bn, h), np.zeros(lam.shape))[0] / D
-        tol_lam = nodal.ROUNDOFF * self._lam_scale(lam)
+        tol_lam = self._lam_zero(lam)
         tol_gap = nodal.ROUNDOFF * max(self._gap_scale(h), self._floor_gap)
         new = np.where(self.slot, nodal.contact_status(self.chi, lam, gn, tol_lam, tol_gap), 0)
         self._seen_contact.add(self._fingerprint(self.chi))
@@ -348,7 +365,7 @@ class NodalContactProblem(InterfaceProblem):
         """At a threshold update: dependent vertices switched to their convex
         combination go back to the extrapolation where it is admissible now, so that
         a switch made far from the solution does not outlive it."""
-        back = ~self.extrapolated & ~self._inadmissible(lam, T, nodal.ROUNDOFF * self._lam_scale(lam))
+        back = ~self.extrapolated & ~self._inadmissible(lam, T, self._lam_zero(lam))
         if back.any():
             self.extrapolated |= back
             self._functions()
@@ -359,7 +376,7 @@ class NodalContactProblem(InterfaceProblem):
         ve, h, lam, T = self._values(x)
         self._seen_contact.clear()
         self._seen_slip.clear()
-        target = np.where(self.slot, nodal.threshold(lam, self._lam_scale(lam)), 0.0)
+        target = np.where(self.slot, self._threshold(lam), 0.0)
         if self.unbounded or not np.any(self._mpi.allgather(bool(np.count_nonzero(self.s)))):
             self.s = target                            # the first thresholds
         else:
@@ -387,7 +404,7 @@ class NodalContactProblem(InterfaceProblem):
         lam = self._values(x)[2]
         if first:
             return 1.0
-        target = np.where(self.slot, nodal.threshold(lam, self._lam_scale(lam)), 0.0)
+        target = np.where(self.slot, self._threshold(lam), 0.0)
         num, den = self._max(np.where(self.slot, target - self.s, 0.0)), self._lam_scale(lam)
         return num / den if den > 0 else (0.0 if num == 0 else np.inf)
 
@@ -431,7 +448,7 @@ class NodalContactProblem(InterfaceProblem):
         self._floor_lam = max(self._floor_lam, self._max(lam))
         self._floor_gap = max(self._floor_gap, self._gap_scale(h))
         if self.friction and not self.unbounded:
-            self.s = np.where(self.slot, nodal.threshold(lam, self._lam_scale(lam)), 0.0)
+            self.s = np.where(self.slot, self._threshold(lam), 0.0)
             self._set_rho_T(self._max(self.s))
             self.carried_thresholds = True
 
@@ -474,7 +491,7 @@ class NodalContactProblem(InterfaceProblem):
         # the traction the equilibrium holds: the dof in stick, mu |s| p in slip
         T = np.where(active & (self.slip != 0), np.where(bounded, bound, 0.0) * self.slip, T)
         if thresholds_from_x:
-            s = np.where(self.slot, nodal.threshold(lam, self._lam_scale(lam)), 0.0)
+            s = np.where(self.slot, self._threshold(lam), 0.0)
             bounded = self.slot & (s != 0) & self.friction
         Tv = self._Tv
         uses = np.abs(Tv) > 0

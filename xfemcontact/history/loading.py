@@ -154,3 +154,37 @@ class Loading:
             for comp in ("FX", "FY"):
                 mean(f"body_force.{comp}", nodes, getattr(body, comp))
         return out
+
+
+def check_instants(case, raw, comm=None):
+    """The imposed displacements can be evaluated at the nodes of their groups at every
+    instant (rank 0 checks on the input mesh ``raw``; every process raises the same
+    one-line :class:`~xfemcontact.errors.FormulaError`, collective).  The last instant
+    is the preflight's."""
+    from xfemcontact.errors import XfcError
+    from xfemcontact.preflight import _raise_shared
+
+    outcome = None
+    if comm is None or comm.rank == 0:
+        try:
+            x = raw.points
+            for d in case.dirichlet:
+                nodes = np.unique(np.concatenate([raw.group_nodes(g) for g in d.groups]))
+                for f in d.components.values():
+                    if not f.uses_time:
+                        continue
+                    for t in case.instants.values[1:-1]:
+                        _at_instant(f.at(t), x[nodes], t)
+        except XfcError as exc:
+            outcome = (type(exc).__name__, str(exc))
+    _raise_shared(outcome, comm)
+
+
+def _at_instant(f, x, t):
+    from xfemcontact.errors import FormulaError
+
+    try:
+        f(x=x[:, 0], y=x[:, 1])
+    except FormulaError as exc:
+        text = str(exc)
+        raise FormulaError(text if "t=" in text else f"{text} (instant t = {t:g})") from None
