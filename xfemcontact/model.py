@@ -161,6 +161,7 @@ class Model:
         # one matrix: K = K_bulk + (interface tangent of the last Jacobian, K_int)
         self._K_int = None
         self._bulk_kept = False
+        self.load_steps = False            # solved in load steps (xfemcontact.history)
 
     def _zero_interface_pattern(self, A):
         """Explicit zeros on every interface coupling, so the pattern never changes."""

@@ -82,6 +82,8 @@ class NodalContactProblem(InterfaceProblem):
         self._dependent_vertices()
         scales = coefficients(setup.case, mesh, setup.geo)
         self.rho_n, self._coef_frot, self._h = scales.coef_cont, scales.coef_frot, scales.h
+        self._kappa = setup.case.material.E / scales.h     # Pa/m: weighs the rows of the dofs
+        self._kappa_rows = None
         self.rho_T = None                                                 # Pa/m, see _set_rho_T
         shape = self.rep_index.shape
         start = 1 if c.contact_init is not False else 0
@@ -294,6 +296,36 @@ class NodalContactProblem(InterfaceProblem):
         K[:, nh + i, nh + i] = t["kl"]
         K[:, nh + m + i, nh + m + i] = t["kT"]
         return K
+
+    def residual_norm(self, F) -> float:
+        """The norm of the residual ``F`` with the rows of the multiplier dofs (weighted
+        gaps and slips, m^2) weighed by E / h into forces (N/m), like the rows of the
+        displacements: sqrt(|R_u|^2 + (E / h)^2 |R_lambda|^2) (all processes).  Without
+        the weight, a gap or slip row violated by a whole interpenetration or slip
+        increment is negligible against the loads, and Newton stops before solving it."""
+        if self._kappa_rows is None:
+            lo, hi = F.getOwnershipRange()
+            g = self.indices[:, self._nh:]
+            g = np.unique(g[(g >= lo) & (g < hi)])
+            self._kappa_rows = (g - lo).astype(np.int64)
+        a = F.getArray(readonly=True)
+        total = float(np.dot(a, a))
+        rows = a[self._kappa_rows]
+        kin = float(np.dot(rows, rows))
+        total, kin = self._mpi.allreduce(np.array([total, kin]))
+        return float(np.sqrt(max(total + (self._kappa ** 2 - 1.0) * kin, 0.0)))
+
+    def friction_settled(self, x) -> bool:
+        """Whether the friction statuses at ``x`` are those its Jacobian used (all
+        processes).  The rows of the conditions are kinematic (m^2): a Newton iterate
+        whose statuses are still changing can have a residual far below the loads'
+        (a stick row violated by a whole slip increment weighs D |slip|), so Newton's
+        convergence also asks for settled statuses (a semi-smooth Newton converges when
+        its active set stops changing)."""
+        if not self.friction:
+            return True
+        slip = self._friction_statuses(x)[0]
+        return not self._mpi.allreduce(bool(np.any((slip != self.slip) & self.slot)), op=MPI.LOR)
 
     def add_matrices(self, J, K) -> None:
         self._op.add_matrices(J, K)

@@ -43,6 +43,7 @@ class Stepper:
         self.checkpoints = checkpoints
         self.loads = Loading(model)
         model.keep_bulk_values()
+        model.load_steps = True
         self.comm = model.comm
         self.instants = self.case.instants
         self.steps: list[dict] = []              # records (rank 0 holds the interface tables)
@@ -88,7 +89,7 @@ class Stepper:
             where = self._where(target, level, total)
             if reason > 0:
                 self.pending.pop(0)
-                self._complete(target, level, listed, counts0, start_state, seconds, where)
+                self._complete(target, level, listed, counts0, start_state, seconds, where, tic)
                 continue
             if self.instants.action == "DECOUPE" and level < self.instants.subd_niveau:
                 start_x.copy(model.x)
@@ -149,8 +150,9 @@ class Stepper:
                 "friction": int(rec.friction) if rec.friction else 0,
                 "jacobians": solver.jacobians - c0["jacobians"]}
 
-    def _complete(self, target, level, listed, c0, start_state, seconds, where):
-        """Record, test, report and checkpoint a converged step."""
+    def _complete(self, target, level, listed, c0, start_state, seconds, where, tic):
+        """Record, test, report and checkpoint a converged step (``seconds``: the solve,
+        ``tic``: when the step started)."""
         from xfemcontact.output.results import interface_table
 
         model, case = self.model, self.case
@@ -186,6 +188,7 @@ class Stepper:
         n_newton = iterations["newton"]
         self._say(f"{where}: {n_newton} Newton iteration{'s' if n_newton != 1 else ''}, "
                   f"{changes} status change{'s' if changes != 1 else ''}, {seconds:.2f} s")
+        record["seconds_total"] = round(time.perf_counter() - tic, 4)
         if self.checkpoints is not None:
             plan = {"time": float(self.time), "pending": [list(p) for p in self.pending],
                     "load_reference": self.loads.reference}
