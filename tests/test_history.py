@@ -90,6 +90,16 @@ def test_case_without_instants_is_one_step(tmp_path):
     assert float(case.dirichlet[1].components["DY"](x=1.0, y=2.0)) == -1e-4
 
 
+def test_readme_example_loads(tmp_path):
+    """The complete example of README.md (Load histories) is a valid case."""
+    text = (ROOT / "README.md").read_text()
+    section = text[text.index("## Load histories"):text.index("## When something goes wrong")]
+    example = re.search(r"```toml\n(.*?)```", section, re.S).group(1)
+    case = load_case(write_case(tmp_path, example))
+    assert len(case.instants.values) == 15 and set(case.functions) == {"press", "tau", "shear"}
+    assert case.functions["shear"](8.0) == 0.0 and case.tests[0].inst == 4.0
+
+
 @pytest.mark.parametrize("extra, message", [
     ("[instants]\nvalues = [0.0, 1.0, 0.5]", r"instants.values\[2\]: instants must increase"),
     ("[instants]\nranges = [{ start = 1.0, end = 1.0, steps = 2 }]", r"instants.ranges\[0\].end: must be > start"),

@@ -133,10 +133,16 @@ class Loading:
         out = {}
 
         def mean(label, nodes, f):
+            from xfemcontact.errors import XfcError
+
             own = nodes[mesh.node_owned[nodes]]
-            local = (float(np.sum(f.at(t)(x=x[own, 0], y=x[own, 1]))), len(own))
-            total, count = np.sum(mpi.allgather(local), axis=0)
-            if count:
+            try:          # tractions are evaluated at quadrature points, not at nodes
+                local = (float(np.sum(f.at(t)(x=x[own, 0], y=x[own, 1]))), len(own), 1)
+            except XfcError:
+                local = (0.0, 0, 0)
+            parts = mpi.allgather(local)
+            total, count = sum(p[0] for p in parts), sum(p[1] for p in parts)
+            if count and all(p[2] for p in parts):
                 out[label] = float(total / count)
 
         for d in self.case.dirichlet:
