@@ -31,12 +31,13 @@ STAMP_PKG := $(VENV)/.package-installed
 CASE ?= cases/ssnv509a.toml
 OUT ?= out
 
-.PHONY: help setup run test test-fast bench clean bytecode
+.PHONY: help setup run test test-fast bench bench-quick bench-large clean bytecode
 
 help:
 	@echo "make run     solve $(CASE) and print its test table (output in $(OUT)/)"
 	@echo "make test    run the whole test suite (MPI tests included)"
-	@echo "make bench   run the benchmark series (bench/)"
+	@echo "make bench   run the benchmark series (bench/): N = 20 ... 320 and QUAD8 640, 1000 (about 30 min)"
+	@echo "make bench-quick   only N = 20 ... 320 (QUAD8, TRIA6, 1 and 2 processes; about 5 min)"
 	@echo "make setup   install Debian packages, .venv and the package only"
 
 setup: $(STAMP_PKG)
@@ -72,8 +73,15 @@ test: bytecode
 test-fast: bytecode
 	$(PY) -m pytest -q -m "not slow" tests
 
-bench: bytecode
+# N = 20 ... 320, QUAD8 and TRIA6, 1 and 2 processes -> bench/results/series.{md,json,png};
+# QUAD8 640 and 1000 (2.5 and 6 million dofs), 1 and 2 processes -> bench/results/large.*
+bench: bench-quick bench-large
+
+bench-quick: bytecode
 	$(PY) bench/run_series.py
+
+bench-large: bytecode
+	$(PY) bench/run_series.py --cells QUAD8 --sizes 640 1000 --procs 1 2 --name large
 
 clean:
 	rm -rf $(VENV) out build *.egg-info .pytest_cache

@@ -53,7 +53,6 @@ import json
 import math
 import os
 import pathlib
-import re
 import shutil
 import subprocess
 import sys
@@ -331,7 +330,6 @@ def case_text(c, meshes="../meshes"):
     coef_frot = c.E / (h * c.mu * pscale)
     # which displacement component is continuous across the interface ("R": imposed on the cut edges)
     horizontal = c.theta == 0
-    plus_edge = next(e for e, v in sides.items() if v > 0)
     # ---- loads
     dirichlet, traction, load_lines = [], [], []
     for e in EDGES:

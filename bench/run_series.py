@@ -1,25 +1,40 @@
 """Benchmark series: SSNV509 geometry on N x N QUAD8 and TRIA6 meshes, 1 and 2 processes.
 
-    python bench/run_series.py                       # N = 20 ... 320, QUAD8 + TRIA6, 1 and 2 processes
-    python bench/run_series.py --sizes 640 --procs 1 # one more point
-    python bench/run_series.py --extra -xfc_friction_unknown traction
+    python bench/run_series.py                          # N = 20 ... 320, QUAD8 + TRIA6, 1 and 2 processes
     python bench/run_series.py --sizes 320 --repeat 5   # 5 runs per point, interleaved
+    python bench/run_series.py --cells QUAD8 --sizes 640 1000 --procs 1 2 --name large
+    python bench/run_series.py --sizes 160 320 --repeat 3 --variant before=/tmp/base --name compare
+    python bench/run_series.py --extra -xfc_friction_unknown traction
 
-With ``--repeat K`` every point is run K times, the process counts taking turns
-(1, 2, 1, 2, ...) so that a slow spell of the machine hits both; each row is the
-run of median wall time, with the spread (min - max) and, per mesh, the speed-up
-of two processes over one from the medians.
+Each run is the command line on a generated case with the default outputs (fields,
+interface.csv, the four plots; ``--no-plots`` switches the plots off), so the
+figures are what a user gets.  With ``--repeat K`` every point is run K times, the
+process counts (and variants) taking turns (1, 2, 1, 2, ...) so that a slow spell
+of this shared machine hits all of them; each row is the run of median wall time,
+with the spread.
 
-Each run is the command line on a generated case (plots off), so the figures are
-what a user gets.  Per run: dofs by kind, cut cells, loop iterations, wall time
-of every phase, the MUMPS analysis / factorisation / solve times (PETSc events),
-peak memory per process, and the start-up overhead (process wall time minus the
-run's own total).  Output in bench/results/: series.json, series.md, series.png.
+``--variant NAME=DIR`` adds the source tree DIR (a checkout or ``git archive`` of
+another commit) run the same way, interleaved with this one, for before/after
+comparisons in one series.
+
+Per run: dofs by kind, loop iterations, wall time of every phase and output step,
+the MUMPS analysis / factorisation / solve times (PETSc events), peak memory per
+process and at the end of every phase, process CPU time (user, system: first
+touch of memory is system time on this machine), and derived figures:
+
+* ``whole / 1 fact.``: process wall time over one numeric factorisation (the mean
+  of the run's factorisations; SSNV509 factorises twice);
+* ``outside MUMPS``: wall time minus analysis, factorisations and solves;
+* ``output %``: post-processing and output phases over the wall time;
+* ``dofs/s``: dofs over wall time.
+
+Output in bench/results/: NAME.json, NAME.md, NAME.png.
 """
 import argparse
 import json
 import os
 import pathlib
+import resource
 import subprocess
 import sys
 import time
@@ -30,37 +45,43 @@ ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIR
            OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1",
            PETSC_DIR=os.environ.get("PETSC_DIR", "/usr/lib/petscdir/petsc3.18/x86_64-linux-gnu-real"))
 
-#: GetFEM 5.4 on this kind of machine, same discretisation (SPEC.md section 4)
+#: GetFEM 5.4 on this kind of machine, same discretisation: (dofs, wall s, peak MB)
 GETFEM = {("QUAD8", 20): (3128, 0.24, 69), ("QUAD8", 80): (41208, 3.9, 295), ("QUAD8", 320): (625584, 56.6, 4052),
           ("TRIA6", 20): (3920, 0.32, 68), ("TRIA6", 80): (54000, 4.2, 278), ("TRIA6", 320): (830352, 49.2, 3871)}
 
 PHASES = ("mesh", "checks", "levelset", "layout", "assembly", "solve", "post", "output")
 
-
 #: the SSNV509 modelisation of each cell type (its test tolerances are those of that modelisation)
 BASE_CASE = {"QUAD8": "ssnv509a.toml", "TRIA6": "ssnv509b.toml"}
 
 
-def case_text(cell, n):
+def case_text(cell, n, plots=True):
     base = (ROOT / "cases" / BASE_CASE[cell]).read_text()
     head, tail = base.split("[mesh]", 1)
     tail = tail.split("\n", 2)[2]          # drop the original mesh line
     mesh = f'[mesh]\nrectangle = {{ nx = {n}, ny = {n}, x = [0.0, 10.0], y = [0.0, 10.0], cell = "{cell}" }}\n'
-    return head + mesh + tail + "\n[output]\nplots = false\n"
+    return head + mesh + tail + ("" if plots else "\n[output]\nplots = false\n")
 
 
-def run_one(cell, n, procs, extra, workdir):
-    case = workdir / f"{cell}_{n}.toml"
-    case.write_text(case_text(cell, n))
-    out = workdir / f"out_{cell}_{n}_{procs}"
-    cmd = [sys.executable, "-m", "xfemcontact", "run", str(case), "-o", str(out), "--overwrite", *extra]
+def run_one(cell, n, procs, args, workdir, source=None, variant=""):
+    case = workdir / f"{cell}_{n}{'' if args.plots else '_noplots'}.toml"
+    case.write_text(case_text(cell, n, args.plots))
+    out = workdir / f"out_{cell}_{n}_{procs}{'_' + variant if variant else ''}"
+    cmd = [sys.executable, "-m", "xfemcontact", "run", str(case), "-o", str(out), "--overwrite", *args.extra]
     if procs > 1:
         cmd = ["mpirun", "-n", str(procs), "--oversubscribe"] + cmd
+    env, cwd = dict(ENV), ROOT
+    if source is not None:          # another source tree: first on the path, run from there
+        env["PYTHONPATH"] = str(source)
+        cwd = source
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    p = subprocess.run(cmd, capture_output=True, text=True, env=ENV, timeout=3600, cwd=ROOT)
+    p = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=args.timeout, cwd=cwd)
     wall = time.perf_counter() - t0
-    if not (out / "results.json").exists():
-        return {"cell": cell, "n": n, "procs": procs, "error": (p.stderr or p.stdout)[-500:]}
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    base = {"cell": cell, "n": n, "procs": procs, "variant": variant, "exit": p.returncode, "wall": wall}
+    if not (out / "results.json").exists() or p.returncode not in (0, 1):
+        return dict(base, error=(p.stderr or p.stdout).strip()[-500:])
     r = json.loads((out / "results.json").read_text())
     ev = r.get("solver_events", {})
     t = r["timings"]
@@ -69,38 +90,79 @@ def run_one(cell, n, procs, extra, workdir):
     nfact = sum(ev.get(k, {}).get("count", 0) for k in ("MatLUFactorNum", "MatCholFctrNum"))
     solves = ev.get("MatSolve", {}).get("time", 0.0)
     mumps = analysis + factor + solves
-    row = {
-        "cell": cell, "n": n, "procs": procs, "dofs": r["dofs"],
-        "cut_cells": (r.get("geometry") or {}).get("cut_cells"),
-        "iterations": r["iterations"], "factorisations": nfact,
-        "phases": {k: t.get(k, 0.0) for k in PHASES},
-        "mumps": {"analysis": analysis, "factorisation": factor, "solve": solves},
-        "total": t.get("total", 0.0), "wall": wall, "startup": wall - t.get("total", 0.0),
-        "other_share": 1.0 - mumps / wall if wall else None,
-        "peak_mb": r["memory"]["peak_mb_per_process"],
-        "ok": all(x["ok"] for x in r["tests"]), "exit": p.returncode,
-        "partition": r.get("partition"),
-    }
-    return row
+    one = factor / nfact if nfact else None
+    mem = r["memory"]
+    return dict(
+        base, dofs=r["dofs"], cut_cells=(r.get("geometry") or {}).get("cut_cells"),
+        iterations=r["iterations"], factorisations=nfact,
+        phases={k: t.get(k, 0.0) for k in PHASES}, steps=r.get("timing_steps", {}),
+        mumps={"analysis": analysis, "factorisation": factor, "solve": solves, "one_factorisation": one},
+        total=t.get("total", 0.0), startup=wall - t.get("total", 0.0),
+        cpu={"user": after.ru_utime - before.ru_utime, "system": after.ru_stime - before.ru_stime},
+        outside_mumps=wall - mumps,
+        whole_over_one=wall / one if one else None,
+        output_share=(t.get("post", 0.0) + t.get("output", 0.0)) / wall,
+        dofs_per_s=r["dofs"]["total"] / wall,
+        peak_mb=mem["peak_mb_per_process"], phase_memory=mem.get("phases"),
+        mumps_info=(r.get("linear_solver") or {}).get("mumps"),
+        ok=all(x["ok"] for x in r["tests"]), partition=r.get("partition"),
+        estimate_mb=(r.get("resources") or {}).get("estimate_mb"))
+
+
+def _f(v, fmt):
+    return "-" if v is None else format(v, fmt)
 
 
 def markdown(rows):
-    lines = ["| cell | N | P | dofs (u / H / C / F1) | cut | fact. | mesh | lset | layout | assem | "
-             "analysis | factor | solve | post+out | total wall | other % | peak MB/proc | tests | GetFEM s / MB |",
-             "|" + "---|" * 19]
+    head = ("| cell | N | P | variant | dofs | fact. | one fact. s | analysis s | wall s | whole / 1 fact. | "
+            "outside MUMPS s | output s (%) | peak MB/proc | dofs/s | CPU user / sys s | tests |")
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for r in rows:
+        label = f"| {r['cell']} | {r['n']} | {r['procs']} | {r.get('variant') or '-'} |"
+        if "error" in r:
+            lines.append(label + f" error (exit {r['exit']}): {r['error'][-120:]} |" + " |" * 11)
+            continue
+        m, p = r["mumps"], r["phases"]
+        out = p["post"] + p["output"]
+        spread = f" ({min(r['walls']):.1f}-{max(r['walls']):.1f})" if len(r.get("walls", [])) > 1 else ""
+        lines.append(
+            label + f" {r['dofs']['total']} | {r['factorisations']} | {_f(m['one_factorisation'], '.2f')} | "
+            f"{m['analysis']:.2f} | {r['wall']:.2f}{spread} | {_f(r['whole_over_one'], '.2f')} | "
+            f"{r['outside_mumps']:.2f} | {out:.2f} ({100 * r['output_share']:.0f}) | "
+            f"{' / '.join(f'{x:.0f}' for x in r['peak_mb'])} | {r['dofs_per_s']:.0f} | "
+            f"{r['cpu']['user']:.1f} / {r['cpu']['system']:.1f} | {'OK' if r['ok'] else 'NOOK'} |")
+    return "\n".join(lines) + "\n"
+
+
+def phase_table(rows):
+    """Wall time and peak memory (max over processes) at the end of every phase."""
+    lines = ["| cell | N | P | variant | " + " | ".join(PHASES) + " | startup |",
+             "|" + "---|" * (len(PHASES) + 5)]
     for r in rows:
         if "error" in r:
-            lines.append(f"| {r['cell']} | {r['n']} | {r['procs']} | error: {r['error'][:60]} |" + " |" * 15)
             continue
-        d, p, m = r["dofs"], r["phases"], r["mumps"]
-        g = GETFEM.get((r["cell"], r["n"]))
-        lines.append(
-            f"| {r['cell']} | {r['n']} | {r['procs']} | {d['total']} ({d['displacement']} / {d['heaviside']} / "
-            f"{d['LAGS_C']} / {d['LAGS_F1']}) | {r['cut_cells']} | {r['factorisations']} | {p['mesh']:.2f} | "
-            f"{p['levelset']:.2f} | {p['layout']:.2f} | {p['assembly']:.2f} | {m['analysis']:.2f} | "
-            f"{m['factorisation']:.2f} | {m['solve']:.2f} | {p['post'] + p['output']:.2f} | {r['wall']:.2f} | "
-            f"{100 * r['other_share']:.0f} | {max(r['peak_mb']):.0f} | {'OK' if r['ok'] else 'NOOK'} | "
-            f"{f'{g[1]} / {g[2]}' if g else ''} |")
+        pm = r.get("phase_memory") or {}
+        cells = []
+        for k in PHASES:
+            mb = max(x for x in pm[k]["peak_mb"] if x is not None) if k in pm else None
+            cells.append(f"{r['phases'][k]:.2f} s / {_f(mb, '.0f')} MB")
+        lines.append(f"| {r['cell']} | {r['n']} | {r['procs']} | {r.get('variant') or '-'} | "
+                     + " | ".join(cells) + f" | {r['startup']:.2f} s |")
+    return "\n".join(lines) + "\n"
+
+
+def step_table(rows):
+    """Wall time of the output steps."""
+    names = sorted({k for r in rows if "error" not in r for k in r.get("steps", {})})
+    if not names:
+        return ""
+    lines = ["| cell | N | P | variant | " + " | ".join(n.split(":")[-1] for n in names) + " |",
+             "|" + "---|" * (len(names) + 4)]
+    for r in rows:
+        if "error" in r:
+            continue
+        lines.append(f"| {r['cell']} | {r['n']} | {r['procs']} | {r.get('variant') or '-'} | "
+                     + " | ".join(f"{r['steps'].get(k, 0.0):.2f}" for k in names) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -112,7 +174,8 @@ def plot(rows, path):
 
     fig, axes = plt.subplots(1, 2, figsize=(13, 5), sharey=True)
     for ax, cell in zip(axes, ("QUAD8", "TRIA6")):
-        sel = [r for r in rows if r["cell"] == cell and r["procs"] == 1 and "error" not in r]
+        sel = [r for r in rows if r["cell"] == cell and r["procs"] == 1 and "error" not in r
+               and not r.get("variant")]
         if not sel:
             continue
         dofs = [r["dofs"]["total"] for r in sel]
@@ -129,7 +192,7 @@ def plot(rows, path):
         for name, ys in series.items():
             ax.loglog(dofs, [max(y, 1e-3) for y in ys], "o-" if name != "total wall" else "k--", label=name)
         g = [(GETFEM[cell, n][0], GETFEM[cell, n][1]) for n in (20, 80, 320)]
-        ax.loglog(*zip(*g), "rs:", label="GetFEM 5.4 total (SPEC)")
+        ax.loglog(*zip(*g), "rs:", label="GetFEM 5.4 total")
         ax.set_xlabel("dofs")
         ax.set_title(f"SSNV509 geometry, {cell}, 1 process")
         ax.grid(True, which="both", alpha=0.3)
@@ -146,33 +209,42 @@ def main():
     ap.add_argument("--procs", nargs="+", type=int, default=[1, 2])
     ap.add_argument("--name", default="series")
     ap.add_argument("--repeat", type=int, default=1, help="runs per point (median reported)")
+    ap.add_argument("--no-plots", dest="plots", action="store_false", help="cases with [output] plots = false")
+    ap.add_argument("--variant", action="append", default=[], metavar="NAME=DIR",
+                    help="also run the source tree DIR, interleaved (repeatable)")
+    ap.add_argument("--timeout", type=float, default=3600.0, help="seconds per run")
     ap.add_argument("--extra", nargs=argparse.REMAINDER, default=[], help="PETSc options for every run")
     args = ap.parse_args()
+    variants = [("", None)] + [(v.split("=", 1)[0], pathlib.Path(v.split("=", 1)[1]).resolve()) for v in args.variant]
     OUT.mkdir(parents=True, exist_ok=True)
     work = OUT / "runs"
     work.mkdir(exist_ok=True)
     rows = []
     for cell in args.cells:
         for n in args.sizes:
-            runs = {procs: [] for procs in args.procs}
+            runs = {(procs, name): [] for procs in args.procs for name, _ in variants}
             for _ in range(args.repeat):
                 for procs in args.procs:
-                    row = run_one(cell, n, procs, args.extra, work)
-                    runs[procs].append(row)
-                    print(f"{cell} N={n} P={procs}: {brief(row)}", flush=True)
-            rows += [median_row(runs[procs]) for procs in args.procs]
-    (OUT / f"{args.name}.json").write_text(json.dumps(rows, indent=1))
-    (OUT / f"{args.name}.md").write_text(markdown(rows) + speedups(rows))
+                    for name, source in variants:
+                        row = run_one(cell, n, procs, args, work, source, name)
+                        runs[procs, name].append(row)
+                        print(f"{cell} N={n} P={procs}{' ' + name if name else ''}: {brief(row)}", flush=True)
+            rows += [median_row(runs[key]) for key in runs]
+            (OUT / f"{args.name}.json").write_text(json.dumps(rows, indent=1))
+    text = (markdown(rows) + speedups(rows) + "\nWall time and peak memory at the end of each phase:\n\n"
+            + phase_table(rows) + "\nOutput steps (s):\n\n" + step_table(rows))
+    (OUT / f"{args.name}.md").write_text(text)
     plot(rows, OUT / f"{args.name}.png")
-    print(markdown(rows) + speedups(rows))
+    print(text)
 
 
 def brief(row):
     if "error" in row:
-        return "error"
-    return (f"{row['dofs']['total']} dofs, wall {row['wall']:.2f} s, factorisations "
-            f"{row['factorisations']}, other {100 * row['other_share']:.0f} %, "
-            f"peak {max(row['peak_mb']):.0f} MB/proc, tests {'OK' if row['ok'] else 'NOOK'}")
+        return f"error (exit {row['exit']}): {row['error'][-200:]}"
+    return (f"{row['dofs']['total']} dofs, wall {row['wall']:.2f} s, whole/1 fact. "
+            f"{_f(row['whole_over_one'], '.2f')}, outside MUMPS {row['outside_mumps']:.2f} s, output "
+            f"{100 * row['output_share']:.0f} %, peak {max(row['peak_mb']):.0f} MB/proc, "
+            f"tests {'OK' if row['ok'] else 'NOOK'}")
 
 
 def median_row(runs):
@@ -188,10 +260,11 @@ def median_row(runs):
 
 
 def speedups(rows):
-    """Markdown lines: wall time of one process over two, per mesh, from the medians."""
+    """Markdown lines: wall time and memory per process of one process over two, per mesh."""
     lines = []
     for r1 in rows:
-        r2 = next((r for r in rows if r["cell"] == r1["cell"] and r["n"] == r1["n"] and r["procs"] == 2), None)
+        r2 = next((r for r in rows if r["cell"] == r1["cell"] and r["n"] == r1["n"] and r["procs"] == 2
+                   and r.get("variant") == r1.get("variant")), None)
         if r1["procs"] != 1 or r2 is None or "error" in r1 or "error" in r2:
             continue
         spread = ""
@@ -199,8 +272,14 @@ def speedups(rows):
             spread = (f" (runs: 1 process {min(r1['walls']):.1f} - {max(r1['walls']):.1f} s, "
                       f"2 processes {min(r2['walls']):.1f} - {max(r2['walls']):.1f} s, "
                       f"{len(r1['walls'])} each)")
-        lines.append(f"- {r1['cell']} N = {r1['n']}: 2 processes {r1['wall'] / r2['wall']:.2f} times "
-                     f"faster than 1 (median walls {r1['wall']:.2f} / {r2['wall']:.2f} s){spread}")
+        m1, m2 = r1["mumps"], r2["mumps"]
+        mumps1 = m1["analysis"] + m1["factorisation"] + m1["solve"]
+        mumps2 = m2["analysis"] + m2["factorisation"] + m2["solve"]
+        lines.append(f"- {r1['cell']} N = {r1['n']}{' ' + r1['variant'] if r1.get('variant') else ''}: "
+                     f"2 processes {r1['wall'] / r2['wall']:.2f} times faster than 1 (median walls "
+                     f"{r1['wall']:.2f} / {r2['wall']:.2f} s; MUMPS alone {mumps1:.2f} / {mumps2:.2f} s), "
+                     f"peak memory per process {max(r1['peak_mb']):.0f} -> {max(r2['peak_mb']):.0f} MB "
+                     f"({max(r1['peak_mb']) / max(r2['peak_mb']):.2f} times less){spread}")
     return ("\n" + "\n".join(lines) + "\n") if lines else ""
 
 

@@ -113,6 +113,23 @@ def test_straight_closed_form(tmp_path, name):
     assert_closed_form(*run_case(tmp_path, write(tmp_path, name)))
 
 
+@pytest.mark.parametrize("name, newton", [
+    # gradient ties of a straight interface on unstructured QUAD8 cells brought back the kernel
+    # of the packet ties (the signed distance's interpolant): LAGS_C +-8000 Pa for -100 in the
+    # stick solve, 15-80 Newton iterations, LAGS_C off by 2.6e-3 of the pressure
+    ("stick-D_q8u_a+60_gen_nu3c", 1),
+    # a dof whose lumped weight is negative (weak vertices extrapolated into it) had its mean
+    # slip taken with the wrong sign, and the bound of slipping dofs was checked on the dof
+    # value instead of the bound itself: no convergence (exit 3)
+    ("above-R_q8u_a+90_gen_nu0", 2),
+])
+def test_straight_unstructured_quad8_newton(tmp_path, name, newton):
+    """Exact answers in as many Newton iterations as the statuses need."""
+    p, res = run_case(tmp_path, write(tmp_path, name))
+    assert_closed_form(p, res)
+    assert res["iterations"]["newton"] <= newton
+
+
 # --- fast: the ends of the coefficient sweep --------------------------------------------------
 SWEEP = [
     ("limit-T_q8s_a+00_gen_nu0", 1.0, 1e-4), ("limit-T_q8s_a+00_gen_nu0", 1.0, 1e4),
@@ -146,12 +163,12 @@ SLOW_XFAIL = {
                                  "5e-7 of the slip at every coefficient (sliver conditioning)",
     "limit-D_q8s_a-10_vfit_nu0": "interface 1e-7 h from a vertex, fitted onto it (readjustment rule 2): LAGS_C "
                                  "off by 1.4e-5 and gap by 3e-7 of the slip when the interface slides",
-    "above-R_q8u_a+90_gen_nu0": "vertical interface across unstructured QUAD8 cells: the tangent flips between "
-                                "+e_y and -e_y with the round-off of n_y (slip of opposite signs at the two ends "
-                                "of one segment); no convergence",
+    "limit-D_q8u3x2_a+20_gen_nu0": "the threshold loop from the sticking start wanders for 16 iterations "
+                                   "(contact loops forced at ITER_CONT_MAXI) before it converges linearly: "
+                                   "change 3.3e-8 at ITER_FROT_MAXI = 30 (416 Newton iterations)",
 }
 SLOW = [pytest.param(c.name, marks=[pytest.mark.slow] + ([xfail(SLOW_XFAIL[c.name])] if c.name in SLOW_XFAIL else []))
-        for c in campaign.TABLE if c.name not in {p if isinstance(p, str) else p.values[0] for p in FAST}]
+        for c in campaign.TABLE if c.name not in set(FAST) | {"stick-D_q8u_a+60_gen_nu3c", "above-R_q8u_a+90_gen_nu0"}]
 
 
 @pytest.mark.parametrize("name", SLOW)
@@ -183,9 +200,11 @@ def test_straight_processes(tmp_path, name, np_):
 #: max |LAGS_F1| up to 16.6, LAGS_C up to +19.6 Pa)
 CURVED = [
     ("curved_ssnv509_mu02_quad8", None),
-    ("curved_ssnv509_mu02_tria6_gmsh", "a point gap of -1.6e-10 m (the weighted gaps at the dofs hold)"),
+    ("curved_ssnv509_mu02_tria6_gmsh", None),
     ("curved_arc_shear_quad8", None),
-    ("curved_arc_shear_quad8_gmsh", "no convergence: a Newton solve reaches ITER_GLOB_MAXI = 30"),
+    # a gradient tie (weights 4.7 from nearly parallel crossed edges) made two dofs' lumped
+    # weights negative (-1.33): no convergence until such ties went back to merges
+    ("curved_arc_shear_quad8_gmsh", None),
     ("curved_inclusion_mixed_quad8", "no convergence: a Newton solve reaches ITER_GLOB_MAXI = 30"),
     ("curved_inclusion_mixed_tria6_gmsh", "no convergence: a Newton solve reaches ITER_GLOB_MAXI = 30"),
 ]

@@ -507,3 +507,18 @@ def test_fuzz_loads_or_refuses_in_one_line(name, data):
             assert message.isprintable(), message
         else:
             assert isinstance(case, Case)
+
+
+def test_case_tables_hold_the_schema_keys():
+    """The typed tables of a Case hold exactly the keys of their schema table (described
+    there, once), apart from what is derived (Contact.friction from frottement)."""
+    import dataclasses
+
+    from xfemcontact.case import load
+
+    pairs = [(load.Material, schema.MATERIAL, set()), (load.Newton, schema.NEWTON, set()),
+             (load.Output, schema.OUTPUT, set()), (load.Interface, schema.INTERFACE, set()),
+             (load.Contact, schema.CONTACT, {"friction", "frottement"})]
+    for cls, table, derived in pairs:
+        fields = {f.name for f in dataclasses.fields(cls)}
+        assert fields ^ set(table.keys) <= derived, (cls.__name__, fields ^ set(table.keys))

@@ -143,3 +143,33 @@ def test_weak_vertices_continue_the_root_field(name):
     exact = space.topo.xv[..., 0] * space.topo.xv[..., 1]
     assert weak.any()
     assert np.allclose(rebuilt[weak], exact[weak], atol=1e-11)
+
+
+@pytest.mark.parametrize("theta", [0, 10, 20, 30, 45, 60, 75, 90, 120, 150])
+def test_straight_interfaces_leave_no_kernel(theta):
+    """A straight interface at any angle across unstructured (Gmsh) QUAD8 cells: the
+    trace of every multiplier combination is non-zero (no kernel left by the ties).
+    Gradient ties keep linear fields, and on a straight stretch the interpolant of the
+    signed distance is a linear field with a zero trace: at 60 degrees a gradient tie
+    brought it back (LAGS_C +-8000 Pa for -100 in a sticking solve)."""
+    from xfemcontact.contact import space as cspace
+
+    case = load_case(CASES / "campaign" / "line_stick-D_q8s_a+10_gen_nu3d.toml")
+    t = np.radians(theta)
+    itf = dataclasses.replace(case.interface, level_set=compile_formula(
+        f"{np.cos(t)!r}*(y - 1.0) - {np.sin(t)!r}*(x - 1.0)"))
+    mesh = dataclasses.replace(case.mesh, file=MESHES / "gmsh_quad8_2x2.msh")
+    model = Model(dataclasses.replace(case, interface=itf, mesh=mesh))
+    problem = model.problem
+    space = problem.space
+    assert cspace._kernel_carriers(space, model.mesh, problem._lin, problem.points.w) == set()
+
+
+@pytest.mark.parametrize("path", [CASES / "campaign" / "curved_arc_shear_quad8_gmsh.toml",
+                                  CASES / "ssnv509a.toml", CASES / "ssnv509b.toml"])
+def test_lumped_weights_are_positive(path):
+    """Every multiplier dof has a positive lumped weight D_a = int phi_a ds, the premise
+    of the conditions written at the dofs (a gradient tie read from nearly parallel
+    crossed edges gave D_a = -1.33 for a largest 1.75 on the Gmsh quadrangles)."""
+    problem = Model(load_case(path)).problem
+    assert (problem._D[problem.slot] > 0).all()

@@ -195,7 +195,6 @@ BUG_LENS = ("BUG fit-to-vertex (rule 2) zeroes a row of vertices but not the mid
 COND_HIGH = ("raw condition number above 1e16 (Jacobi-scaled one is finite, see table): the "
              "per-node DROP_RATIO rule does not bound it")
 
-GEOMETRY_XFAIL = {}
 COND_XFAIL = {
     ("QUAD8", "row + 2e-6 h"): (COND_HIGH, AssertionError),
     ("TRIA6", "row + 2e-6 h"): (COND_HIGH, AssertionError),
@@ -338,7 +337,7 @@ def _get(cell, name):
     return res
 
 
-@pytest.mark.parametrize("cell, name", _params(GEOMETRY_XFAIL))
+@pytest.mark.parametrize("cell, name", _params({}))
 def test_straight_interface_geometry(cell, name):
     """Valid sub-cells, exact areas and length (a straight line is represented exactly),
     nothing NaN.  When fit-to-vertex moved the interface, the error is bounded by the

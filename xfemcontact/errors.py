@@ -13,6 +13,9 @@ reports it once and every process leaves with its exit code.  Any other error
 that process and the whole run is aborted (``MPI_Abort``) so that no process
 waits forever for the others.
 """
+from __future__ import annotations
+
+from typing import Any
 
 
 class XfcError(Exception):
@@ -22,7 +25,7 @@ class XfcError(Exception):
     #: raised identically by every process (see the module documentation)
     collective = False
 
-    def __init__(self, *args, collective=None):
+    def __init__(self, *args: object, collective: bool | None = None) -> None:
         super().__init__(*args)
         if collective is not None:
             self.collective = collective
@@ -61,9 +64,10 @@ class ConvergenceError(XfcError):
     exit_code = 3
     collective = True
 
-    def __init__(self, *args, diagnostics=None, collective=None):
+    def __init__(self, *args: object, diagnostics: dict[str, Any] | None = None,
+                 collective: bool | None = None) -> None:
         super().__init__(*args, collective=collective)
-        self.diagnostics = diagnostics or {}
+        self.diagnostics: dict[str, Any] = diagnostics or {}
 
 
 class Interrupted(BaseException):
@@ -74,21 +78,21 @@ class Interrupted(BaseException):
     results ("previous results in X kept", "no results written", ...).
     """
 
-    def __init__(self, signum, name=None):
+    def __init__(self, signum: int, name: str | None = None) -> None:
         super().__init__(signum)
         self.signum = int(signum)
         self.name = name or _signal_name(signum)
-        self.outcome = None
+        self.outcome: str | None = None
 
     @property
-    def exit_code(self):
+    def exit_code(self) -> int:
         return 128 + self.signum
 
-    def __str__(self):
+    def __str__(self) -> str:
         return f"interrupted ({self.name}): {self.outcome or 'no results written'}"
 
 
-def _signal_name(signum):
+def _signal_name(signum: int) -> str:
     import signal
 
     try:
@@ -97,6 +101,6 @@ def _signal_name(signum):
         return f"signal {signum}"
 
 
-def where(source, key):
+def where(source: str, key: str | None) -> str:
     """Format the ``file: key`` prefix of a message."""
     return f"{source}: {key}" if key else f"{source}"

@@ -249,6 +249,7 @@ class Model:
         changed keeps its factorisation."""
         if self.solver is None:
             self.solver = NonlinearSolver(self)
+        self.layout.release_setup()      # PetscSections and DMPlex: not needed from here on
         release_heap()
         with phase("solve"):
             return self.solver.solve(self.x)

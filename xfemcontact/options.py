@@ -19,10 +19,13 @@ from __future__ import annotations
 import difflib
 import math
 from dataclasses import dataclass
+from typing import Any
 
 from xfemcontact.errors import XfcError
 
 PREFIX = "xfc_"
+#: the checked value of an option: a string of ``choices`` or a float
+Value = str | float
 
 
 class OptionError(XfcError):
@@ -46,8 +49,8 @@ class Option:
     name: str
     type: str
     doc: str
-    choices: tuple = ()
-    default: object = None
+    choices: tuple[str, ...] = ()
+    default: Value | None = None
     default_doc: str = ""
     gt: float | None = None
     ge: float | None = None
@@ -65,7 +68,7 @@ class Option:
                   if limit is not None]
         return "a number" + (" " + " and ".join(bounds) if bounds else "")
 
-    def convert(self, text: str):
+    def convert(self, text: str | None) -> Value:
         """The checked value of ``text``; :class:`OptionError` naming the option if wrong."""
         shown = " ".join(str(text).split())[:60] if text is not None else ""
         if text is None or not str(text).strip():
@@ -100,24 +103,32 @@ OPTIONS = {o.name: o for o in (
            "largest amount of data (MB) a mesh file may declare (node coordinates, cells, "
            "fields, after decompression); larger files are refused before they are read",
            gt=0, le=1e9, default_doc="1/16 of this machine's memory"),
+    Option("memory_limit", "float",
+           "memory (MB) the case may use on all processes together; a case whose estimate "
+           "does not fit is refused before the mesh is built; 0 switches the check off",
+           ge=0, le=1e12, default_doc="what the machine, its cgroup and ulimit -v give"),
 )}
 
 
-def _database():
+def _database() -> Any:         # a petsc4py PETSc.Options (no type information)
     from xfemcontact._petsc import PETSc
 
     return PETSc.Options()
 
 
-def given() -> dict:
+def given() -> dict[str, str]:
     """The ``-xfc_*`` options given: {name without prefix: value as text}."""
     return {key[len(PREFIX):]: value for key, value in _database().getAll().items()
             if key.startswith(PREFIX)}
 
 
-def get(name: str, default=None):
+def get(name: str, default: Value | None = None) -> Any:
     """The checked value of ``-xfc_<name>``, or ``default`` (then the option's own default)
-    when it is not given.  Raises :class:`OptionError`."""
+    when it is not given.  Raises :class:`OptionError`.
+
+    The value is a :data:`Value`: a ``str`` for ``"choice"`` options, a ``float`` for
+    ``"float"`` ones (or None when neither given nor defaulted); typed ``Any`` since
+    which one depends on ``name``."""
     option = OPTIONS[name]
     values = given()
     if name not in values:

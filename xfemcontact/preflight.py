@@ -33,7 +33,10 @@ had to lift many edges (an interface the mesh follows poorly).
 :func:`levelset_meets_domain` also works on the nodal values of the distributed
 mesh (``comm`` for the global reductions).
 """
+from __future__ import annotations
+
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Iterable, cast
 
 import numpy as np
 
@@ -41,6 +44,23 @@ from xfemcontact.contact import laws
 from xfemcontact.errors import CaseError, FormulaError, GeometryError, MeshError, XfcError
 from xfemcontact.mesh.build import build_raw_mesh
 from xfemcontact.xfem.levelset import ROUNDOFF, normalised     # rule 1 of the readjustment
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+    from numpy.typing import ArrayLike, NDArray
+
+    from xfemcontact.case.load import Case, Dirichlet, Traction
+    from xfemcontact.contact.laws import InterfaceLaw
+    from xfemcontact.fem.elements import Element
+    from xfemcontact.mesh.raw import RawMesh
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+    #: edges shared by two cells: (first cell (k,), second cell (k,), nodes (k, 3))
+    InteriorEdges = tuple[IntArray, IntArray, IntArray]
+    #: what rank 0 found: ("ok", Preflight) or (error class name, message)
+    Outcome = tuple[str, Any]
 #: positions closer than this fraction of the mesh size are the same position
 SAME_POSITION = 1e-9
 #: the other sign inside a cell counts beyond this fraction of the cell's largest |LN|
@@ -63,20 +83,21 @@ _ERRORS = {cls.__name__: cls for cls in (CaseError, FormulaError, GeometryError,
 class Preflight:
     """What :func:`preflight` found: warnings (one line each) and whether to keep the interface."""
 
-    warnings: list = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
     interface: bool = True       # False: the level set does not meet the domain
-    resolution: dict | None = None   # see interface_resolution (formula level sets)
+    resolution: dict[str, Any] | None = None   # see interface_resolution (formula level sets)
 
 
 # --- the whole check, collective ----------------------------------------------------------
 
-def build_mesh(case, comm=None):
+def build_mesh(case: Case, comm: MPI.Comm | None = None) -> RawMesh | None:
     """The case's input mesh on rank 0 (None elsewhere); a failure is a collective MeshError.
 
     Wraps :func:`xfemcontact.mesh.build.build_raw_mesh`.
     """
     rank = comm.rank if comm is not None else 0
-    outcome = raw = None
+    outcome: Outcome | None = None
+    raw: RawMesh | None = None
     if rank == 0:
         try:
             raw = build_raw_mesh(case)
@@ -87,7 +108,7 @@ def build_mesh(case, comm=None):
     return raw
 
 
-def preflight(case, raw, comm=None):
+def preflight(case: Case, raw: RawMesh | None, comm: MPI.Comm | None = None) -> Preflight:
     """Check ``case`` against its input mesh ``raw`` (rank 0; None elsewhere).
 
     ``comm``: an mpi4py communicator, or None when serial.  Call it on every
@@ -95,20 +116,24 @@ def preflight(case, raw, comm=None):
     returns the same :class:`Preflight` everywhere.
     """
     rank = comm.rank if comm is not None else 0
-    outcome = None
+    outcome: Outcome | None = None
     if rank == 0:
+        assert raw is not None                   # rank 0 has the input mesh
         try:
             outcome = ("ok", _preflight(case, raw))
         except XfcError as exc:
             outcome = (type(exc).__name__, str(exc))
     if comm is not None and comm.size > 1:
         outcome = comm.bcast(outcome, root=0)
+    assert outcome is not None                   # rank 0's
     if outcome[0] == "ok":
         return outcome[1]
     _raise_shared(outcome, None)
+    raise AssertionError("unreachable: _raise_shared raised")
 
 
-def _raise_shared(outcome, comm):
+def _raise_shared(outcome: Outcome | None, comm: MPI.Comm | None) -> None:
+    """Raise the error of ``outcome`` (rank 0's, broadcast when ``comm``) on every process."""
     if comm is not None and comm.size > 1:
         outcome = comm.bcast(outcome, root=0)
     if outcome is None:
@@ -117,7 +142,7 @@ def _raise_shared(outcome, comm):
     raise _ERRORS.get(kind, XfcError)(message, collective=True)
 
 
-def _preflight(case, raw):
+def _preflight(case: Case, raw: RawMesh) -> Preflight:
     result = Preflight()
     case.check_groups(raw.group_names())
     group_dimensions(case, raw)
@@ -168,7 +193,7 @@ def _preflight(case, raw):
         if itf.level_set is not None:
             result.resolution = interface_resolution(case, raw, phi)
             message = _resolution_message(case, result.resolution)
-            if message is not None and result.resolution["refused"]:
+            if message is not None and result.resolution is not None and result.resolution["refused"]:
                 raise GeometryError(message)
             if message is not None and phi is None:
                 # it meets the domain, but between the nodes: said instead of "does not meet"
@@ -184,20 +209,21 @@ def _preflight(case, raw):
 
 # --- groups ------------------------------------------------------------------------------
 
-def group_dimensions(case, raw):
+def group_dimensions(case: Case, raw: RawMesh) -> None:
     """CaseError when a load names a group of the wrong dimension: tractions act on edge
     groups, imposed displacements on edge or node groups (not on cell groups)."""
     mesh = raw.source if case.mesh.file is not None else "rectangle"
 
-    def kinds(name):
+    def kinds(name: str) -> list[str]:
         return [kind for kind, groups in (("edge", raw.edge_groups), ("node", raw.node_groups),
                                           ("cell", raw.cell_groups)) if name in groups]
 
-    def listed(kind):
+    def listed(kind: str) -> str:
         names = sorted({"edge": raw.edge_groups, "node": raw.node_groups,
                         "cell": raw.cell_groups}[kind])
         return ", ".join(names[:20]) + (", ..." if len(names) > 20 else "") or "none"
 
+    load: Traction | Dirichlet
     for load in case.traction:
         for group in load.groups:
             found = kinds(group)
@@ -214,7 +240,7 @@ def group_dimensions(case, raw):
                                 f"(edge groups: {listed('edge')}; node groups: {listed('node')})")
 
 
-def _field_values(case, raw, name):
+def _field_values(case: Case, raw: RawMesh, name: str | None) -> FloatArray:
     """Nodal field ``name`` of the mesh file (the level set), or a MeshError listing them."""
     fields = getattr(raw, "point_data", None) or {}
     if name not in fields:
@@ -224,11 +250,11 @@ def _field_values(case, raw, name):
     return np.asarray(fields[name], dtype=float).reshape(-1)
 
 
-def _group_nodes(raw, groups):
+def _group_nodes(raw: RawMesh, groups: Iterable[str]) -> IntArray:
     return np.unique(np.concatenate([raw.group_nodes(g) for g in groups]))
 
 
-def _roundoff(cells, phi):
+def _roundoff(cells: IntArray, phi: FloatArray) -> FloatArray:
     """``phi`` with |LN| <= ROUNDOFF * (largest |LN| of the cells holding the node) set to 0."""
     from xfemcontact.xfem.levelset import cell_max_at_nodes
 
@@ -240,7 +266,8 @@ def _roundoff(cells, phi):
 
 # --- the level set ------------------------------------------------------------------------
 
-def levelset_meets_domain(phi, x=None, comm=None, source="<case>", key="interface.level_set"):
+def levelset_meets_domain(phi: ArrayLike, x: FloatArray | None = None, comm: MPI.Comm | None = None,
+                          source: str = "<case>", key: str = "interface.level_set") -> str | None:
     """A warning (one line) when LN does not take both signs on the mesh, else None.
 
     ``phi``: LN at the nodes (of this process when ``comm``, an mpi4py
@@ -275,7 +302,8 @@ def levelset_meets_domain(phi, x=None, comm=None, source="<case>", key="interfac
             f"solving without interface")
 
 
-def closed_curve_in_cell(raw, phi, source="<case>", key="interface.level_set"):
+def closed_curve_in_cell(raw: RawMesh, phi: FloatArray, source: str = "<case>",
+                         key: str = "interface.level_set") -> str | None:
     """An error message when the interpolated LN changes sign inside a cell whose nodes
     all have one sign (a closed interface smaller than the cell, which the cut cannot
     follow), else None.  ``phi``: nodal LN (normalised, round-off set to 0)."""
@@ -305,8 +333,9 @@ def closed_curve_in_cell(raw, phi, source="<case>", key="interface.level_set"):
             f"the other sign inside): refine the mesh there")
 
 
-def levelset_without_sign_change(cells, nv, phi, x, source="<case>", key="interface.level_set",
-                                 interior=None):
+def levelset_without_sign_change(cells: IntArray, nv: int, phi: FloatArray, x: FloatArray,
+                                 source: str = "<case>", key: str = "interface.level_set",
+                                 interior: InteriorEdges | None = None) -> str | None:
     """An error message when LN is 0 where it does not separate two sides, else None.
 
     ``cells`` ``(nc, nn)`` node indices (vertices first, then the mid-edge node of
@@ -347,13 +376,13 @@ def levelset_without_sign_change(cells, nv, phi, x, source="<case>", key="interf
                      f"supported)")
 
 
-def _cell_edges(cells, nv):
+def _cell_edges(cells: IntArray, nv: int) -> IntArray:
     """``(nc * nv, 3)`` nodes (a, b, mid) of every cell edge, cell by cell."""
     k = np.arange(nv)
     return np.stack([cells[:, k], cells[:, (k + 1) % nv], cells[:, nv + k]], axis=-1).reshape(-1, 3)
 
 
-def _interior_edges(cells, nv):
+def _interior_edges(cells: IntArray, nv: int) -> InteriorEdges:
     """Edges shared by two cells: ``(c1, c2, nodes (k, 3))``, found by their mid-node."""
     edges = _cell_edges(cells, nv)
     owner = np.repeat(np.arange(len(cells)), nv)
@@ -366,7 +395,9 @@ def _interior_edges(cells, nv):
 
 # --- rigid-body modes ---------------------------------------------------------------------
 
-def rigid_body_modes(case, raw, phi=None, law=None, interior=None):
+def rigid_body_modes(case: Case, raw: RawMesh, phi: FloatArray | None = None,
+                     law: InterfaceLaw | None = None,
+                     interior: InteriorEdges | None = None) -> str | None:
     """A one-line error message when a rigid-body motion is left free, else None.
 
     Bodies: the connected parts of the mesh (cells sharing an edge); with an
@@ -387,6 +418,7 @@ def rigid_body_modes(case, raw, phi=None, law=None, interior=None):
     cells, nv, x = raw.cells, raw.n_vertices_per_cell, raw.points
     nc = len(cells)
     separate = law is not None and law.separate_bodies and phi is not None
+    phi = cast("FloatArray", phi)       # read only where separate, which needs it
     if separate:
         pc = phi[cells]
         has = np.stack([(pc < 0).any(axis=1), (pc > 0).any(axis=1)], axis=1)   # [-, +]
@@ -410,7 +442,7 @@ def rigid_body_modes(case, raw, phi=None, law=None, interior=None):
     incid = _node_cells(cells, len(x))
     lo = {c: np.full(2 * nc, np.inf) for c in ("DX", "DY")}
     hi = {c: np.full(2 * nc, -np.inf) for c in ("DX", "DY")}
-    groups = {c: {} for c in ("DX", "DY")}
+    groups: dict[str, dict[int, set[str]]] = {c: {} for c in ("DX", "DY")}
     for bc in case.dirichlet:
         nodes = _group_nodes(raw, bc.groups)
         both = np.zeros(len(x), bool)
@@ -422,9 +454,9 @@ def rigid_body_modes(case, raw, phi=None, law=None, interior=None):
         if separate:
             sides.append(np.where(both[node_of], 1 - node_side[node_of], -1))
         held_pieces, held_nodes = [], []
-        for s in sides:
-            keep = s >= 0
-            p = piece[cell_of[keep], s[keep]]
+        for side in sides:
+            keep = side >= 0
+            p = piece[cell_of[keep], side[keep]]
             live = exists[p]
             held_pieces.append(p[live])
             held_nodes.append(node_of[keep][live])
@@ -450,7 +482,7 @@ def rigid_body_modes(case, raw, phi=None, law=None, interior=None):
     return None
 
 
-def _components(n, links):
+def _components(n: int, links: list[tuple[IntArray, IntArray]]) -> IntArray:
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
@@ -460,7 +492,7 @@ def _components(n, links):
     return connected_components(graph, directed=False)[1]
 
 
-def _node_cells(cells, n):
+def _node_cells(cells: IntArray, n: int) -> tuple[IntArray, IntArray]:
     """CSR node -> cells incidence: ``(indptr, cell indices)``."""
     node = cells.ravel()
     order = np.argsort(node, kind="stable")
@@ -470,7 +502,7 @@ def _node_cells(cells, n):
     return indptr, cell
 
 
-def _incident(incid, nodes):
+def _incident(incid: tuple[IntArray, IntArray], nodes: IntArray) -> tuple[IntArray, IntArray]:
     """``(cells, nodes)``: every (cell, node) pair with ``node`` in ``nodes``."""
     indptr, cell = incid
     start, stop = indptr[nodes], indptr[nodes + 1]
@@ -480,7 +512,7 @@ def _incident(incid, nodes):
     return cell[np.repeat(start, count) + offset], node_of
 
 
-def _interface_nodes(raw, groups, phi):
+def _interface_nodes(raw: RawMesh, groups: Iterable[str], phi: FloatArray) -> IntArray:
     """Nodes of ``groups`` that hold both sides: node groups, edges reaching the interface."""
     out = []
     for g in groups:
@@ -494,7 +526,8 @@ def _interface_nodes(raw, groups, phi):
     return np.concatenate(out).astype(np.int64) if out else np.zeros(0, np.int64)
 
 
-def _free_motions(body, lo, hi, groups, tol):
+def _free_motions(body: int, lo: dict[str, FloatArray], hi: dict[str, FloatArray],
+                  groups: dict[str, dict[int, set[str]]], tol: float) -> str | None:
     """What is free for component ``body``, in words, or None."""
     has = {c: np.isfinite(lo[c][body]) for c in ("DX", "DY")}
     spread = {c: has[c] and hi[c][body] - lo[c][body] > tol for c in ("DX", "DY")}
@@ -522,7 +555,8 @@ def _free_motions(body, lo, hi, groups, tol):
     return None
 
 
-def _which_body(body, label, exists, cells, x, n_bodies, separate):
+def _which_body(body: int, label: IntArray, exists: BoolArray, cells: IntArray, x: FloatArray,
+                n_bodies: int, separate: bool) -> str:
     if n_bodies == 1:
         return ""
     mine = np.flatnonzero((label == body) & exists)
@@ -536,7 +570,7 @@ def _which_body(body, label, exists, cells, x, n_bodies, separate):
     return f" for the part of the mesh made of {where} (it shares no edge with the rest)"
 
 
-def _extent(x, cells):
+def _extent(x: FloatArray, cells: IntArray) -> float:
     """Largest side of the bounding box of the nodes that cells use, m."""
     used = np.zeros(len(x), bool)
     used[cells.ravel()] = True
@@ -546,7 +580,7 @@ def _extent(x, cells):
 
 # --- how well the mesh represents the interface ---------------------------------------------
 
-def _sample_points(el, k=6):
+def _sample_points(el: Element, k: int = 6) -> FloatArray:
     """Reference points of a k-interval grid of the cell (corners and edges included)."""
     t = np.linspace(0.0, 1.0, k + 1)
     if el.nv == 3:
@@ -555,7 +589,7 @@ def _sample_points(el, k=6):
     return np.array([(a, b) for a in u for b in u])
 
 
-def interface_resolution(case, raw, phi):
+def interface_resolution(case: Case, raw: RawMesh, phi: FloatArray | None) -> dict[str, Any] | None:
     """How far the interface the mesh represents is from the zero of the level-set formula.
 
     On the cells near the interface (nodal LN of both signs, or smaller than twice its
@@ -572,6 +606,7 @@ def interface_resolution(case, raw, phi):
     from xfemcontact.fem.elements import element, physical_gradients
 
     itf = case.interface
+    assert itf is not None and itf.level_set is not None     # a level-set formula
     el = element(raw.cell_type)
     cells, x = raw.cells, raw.points
     used = np.unique(cells)
@@ -580,20 +615,23 @@ def interface_resolution(case, raw, phi):
     scale = float(np.ldexp(1.0, -np.frexp(np.abs(values).max())[1])) if values.any() else 1.0
     values *= scale                    # exact (a power of two): no overflow, no underflow
 
-    def level_set(xs, ys):
-        return itf.level_set(x=xs, y=ys) * scale
+    formula = itf.level_set
+
+    def level_set(xs: FloatArray, ys: FloatArray) -> FloatArray:
+        return formula(x=xs, y=ys) * scale
 
     pc = values[cells]
     lo, hi = pc.min(axis=1), pc.max(axis=1)
     near = ((lo < 0) & (hi > 0)) | (np.abs(pc).min(axis=1) <= 2.0 * (hi - lo))
     cand = np.flatnonzero(near)
-    out = {"offset_h": 0.0, "offset_m": 0.0, "at": None, "cell": None, "seen": True,
-           "sampled_cells": int(len(cand)), "max_offset": itf.max_offset, "refused": False}
+    out: dict[str, Any] = {"offset_h": 0.0, "offset_m": 0.0, "at": None, "cell": None,
+                           "seen": True, "sampled_cells": int(len(cand)),
+                           "max_offset": itf.max_offset, "refused": False}
     if len(cand) == 0:
         return out
     xi = _sample_points(el)
     N, dN = el.shape(xi), el.dshape(xi)                          # (m, nn), (m, nn, 2)
-    best = (0.0, None)
+    best: tuple[float, tuple[int, float, FloatArray] | None] = (0.0, None)
     for start in range(0, len(cand), 4096):
         c = cand[start:start + 4096]
         xc = x[cells[c]]                                         # (b, nn, 2)
@@ -640,7 +678,7 @@ def interface_resolution(case, raw, phi):
     return out
 
 
-def _resolution_message(case, r):
+def _resolution_message(case: Case, r: dict[str, Any] | None) -> str | None:
     """The warning or refusal of :func:`interface_resolution`'s outcome ``r``, or None."""
     if r is None or r["offset_h"] <= OFFSET_WARNING:
         return None
@@ -660,10 +698,11 @@ def _resolution_message(case, r):
     return prefix + what + "; refine the mesh there for a closer interface"
 
 
-def readjustment_warnings(case, model):
+def readjustment_warnings(case: Case, model: Any) -> list[str]:
     """Warnings (one line each, every process the same) when the readjustment rules
     lifted many edges: the level set crosses edges twice, so the interface was moved to
-    cross them once (collective)."""
+    cross them once (collective).  ``model``: the set-up
+    :class:`~xfemcontact.model.Model` (not imported: it imports this module)."""
     geo = model.geo
     if geo is None:
         return []
@@ -676,6 +715,7 @@ def readjustment_warnings(case, model):
     if lifted <= many or lifted <= fraction * max(cut, 1):
         return []
     itf = case.interface
+    assert itf is not None                  # the geometry comes from the interface
     key = "interface.level_set" if itf.level_set is not None else "interface.level_set_field"
     return [f"{case.source}: {key}: the level set crosses {lifted} cell edge(s) twice (of "
             f"{cut} cut cells; {pushed} pushed off): the interface was moved there to cross "

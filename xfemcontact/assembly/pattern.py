@@ -50,8 +50,8 @@ def _ghost_owners(mesh):
     """Owner rank of every local node that this process does not own."""
     if mesh.comm.size == 1:
         return np.zeros(0, dtype=np.int64)
-    _, leaves, remote = mesh.dm.getPointSF().getGraph()
-    owner_of_point = np.full(mesh.dm.getChart()[1], mesh.comm.rank, dtype=np.int64)
+    _, leaves, remote = mesh.point_sf.getGraph()
+    owner_of_point = np.full(mesh.chart[1], mesh.comm.rank, dtype=np.int64)
     owner_of_point[np.asarray(leaves)] = np.asarray(remote)[:, 0]
     return owner_of_point[mesh.node_points[~mesh.node_owned]]
 
@@ -183,8 +183,8 @@ def _reduce_to_owners(mesh, d, o):
     """
     from mpi4py import MPI
 
-    sf = mesh.dm.getPointSF()
-    nchart = mesh.dm.getChart()[1]
+    sf = mesh.point_sf
+    nchart = mesh.chart[1]
     leaf = np.zeros((nchart, 2), dtype=np.int64)
     leaf[mesh.node_points[~mesh.node_owned]] = np.c_[d, o][~mesh.node_owned]
     root = np.zeros((nchart, 2), dtype=np.int64)

@@ -125,22 +125,31 @@ def _edge_forces_by_side(mesh, geo, nodes, xe, spec):
 
 
 def local_to_global(layout, arr):
-    """Global Vec summing the local work array ``arr`` over processes (dummy dropped)."""
-    dm = layout.mesh.dm
-    lv = dm.createLocalVec()
+    """Global Vec summing the local work array ``arr`` over processes (dummy dropped).
+
+    On one process the global dofs are the free local dofs in order
+    (``layout.identity``): a copy.  Otherwise the layout's scatter (free local dofs
+    to their global entries, shared dofs summed on their owner).
+    """
+    g = layout.create_global_vec()
+    if layout.identity:
+        g.setArray(arr[layout.free_local])
+        return g
+    scatter, lv = layout.scatter
     lv.setArray(arr[:-1])
-    g = dm.createGlobalVec()
     g.set(0.0)
-    dm.localToGlobal(lv, g, addv=PETSc.InsertMode.ADD_VALUES)
+    scatter.scatter(lv, g, addv=PETSc.InsertMode.ADD_VALUES, mode=PETSc.ScatterMode.FORWARD)
     return g
 
 
 def global_to_local(layout, g, x_bc):
     """Local work array of global vector ``g`` with imposed values from ``x_bc``."""
-    dm = layout.mesh.dm
-    lv = dm.createLocalVec()
-    dm.globalToLocal(g, lv)
     out = x_bc.copy()
     free = layout.free_local
+    if layout.identity:
+        out[free] = g.getArray(readonly=True)
+        return out
+    scatter, lv = layout.scatter
+    scatter.scatter(g, lv, addv=PETSc.InsertMode.INSERT_VALUES, mode=PETSc.ScatterMode.REVERSE)
     out[free] = lv.getArray(readonly=True)[free]
     return out

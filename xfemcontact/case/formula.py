@@ -26,14 +26,29 @@ and a depth of :data:`MAX_DEPTH`.  Evaluation ignores floating-point warnings
 and refuses non-finite results (or comparison operands), naming the first
 offending point.
 """
+from __future__ import annotations
+
 import ast
 import difflib
 import functools
 import warnings
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Mapping, NoReturn, cast
 
 import numpy as np
 
 from xfemcontact.errors import FormulaError, where
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike, NDArray
+
+    #: the variables' values during an evaluation, by name
+    Env = dict[str, NDArray[np.float64]]
+    #: what a compiled node gives: an array, or a NumPy scalar for constants
+    Result = NDArray[Any] | np.float64 | np.bool_
+    #: a compiled node
+    Closure = Callable[[Env], Result]
+    #: how a kind of node is compiled: (NUMBER or CONDITION, its closure)
+    Compiled = tuple[str, Closure]
 
 MAX_LENGTH = 2000
 MAX_NESTING = 50
@@ -41,12 +56,12 @@ MAX_NODES = 500
 MAX_DEPTH = 100
 
 
-def _fold(ufunc):
+def _fold(ufunc: Callable[[Any, Any], Any]) -> Callable[..., Any]:
     return lambda *args: functools.reduce(ufunc, args)
 
 
 #: name -> (NumPy function, least and most number of arguments; None: no limit)
-FUNCTIONS = {
+FUNCTIONS: dict[str, tuple[Callable[..., Any], int, int | None]] = {
     "sqrt": (np.sqrt, 1, 1), "sin": (np.sin, 1, 1), "cos": (np.cos, 1, 1),
     "tan": (np.tan, 1, 1), "asin": (np.arcsin, 1, 1), "acos": (np.arccos, 1, 1),
     "atan": (np.arctan, 1, 1), "atan2": (np.arctan2, 2, 2), "sinh": (np.sinh, 1, 1),
@@ -58,11 +73,14 @@ FUNCTIONS = {
 }
 CONSTANTS = {"pi": np.pi, "e": np.e}
 
-_BINARY = {ast.Add: np.add, ast.Sub: np.subtract, ast.Mult: np.multiply,
-           ast.Div: np.true_divide, ast.Pow: np.power}
-_UNARY = {ast.UAdd: np.positive, ast.USub: np.negative}
-_COMPARE = {ast.Lt: np.less, ast.LtE: np.less_equal, ast.Gt: np.greater,
-            ast.GtE: np.greater_equal, ast.Eq: np.equal, ast.NotEq: np.not_equal}
+_BINARY: dict[type[ast.operator], Callable[..., Any]] = {
+    ast.Add: np.add, ast.Sub: np.subtract, ast.Mult: np.multiply,
+    ast.Div: np.true_divide, ast.Pow: np.power}
+_UNARY: dict[type[ast.unaryop], Callable[..., Any]] = {ast.UAdd: np.positive,
+                                                       ast.USub: np.negative}
+_COMPARE: dict[type[ast.cmpop], Callable[..., Any]] = {
+    ast.Lt: np.less, ast.LtE: np.less_equal, ast.Gt: np.greater,
+    ast.GtE: np.greater_equal, ast.Eq: np.equal, ast.NotEq: np.not_equal}
 _SYMBOLS = {ast.Mod: "%", ast.FloorDiv: "//", ast.MatMult: "@", ast.LShift: "<<",
             ast.RShift: ">>", ast.BitOr: "|", ast.BitAnd: "&", ast.Invert: "~",
             ast.In: "in", ast.NotIn: "not in", ast.Is: "is", ast.IsNot: "is not"}
@@ -85,31 +103,31 @@ class _NonFinite(Exception):
     """Raised during evaluation with the mask of the non-finite values."""
 
 
-def _fail(prefix, message):
+def _fail(prefix: str, message: str) -> NoReturn:
     raise FormulaError(f"{prefix}: {message}")
 
 
-def _finite(value):
+def _finite(value: Result) -> Result:
     bad = ~np.isfinite(value)
     if np.any(bad):
         raise _NonFinite(bad)
     return value
 
 
-def _shorten(text, limit=40):
+def _shorten(text: str, limit: int = 40) -> str:
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
-def _snippet(node):
+def _snippet(node: ast.AST) -> str:
     return _shorten(ast.unparse(node))
 
 
-def _hint(name, known):
+def _hint(name: str, known: list[str]) -> str:
     close = difflib.get_close_matches(name, known, n=1)
     return f"(did you mean '{close[0]}'?)" if close else f"(known: {', '.join(known)})"
 
 
-def _describe(value):
+def _describe(value: object) -> str:
     """How a refused TOML value is named in messages."""
     if isinstance(value, bool):
         return "true" if value else "false"
@@ -118,11 +136,11 @@ def _describe(value):
     return kinds.get(type(value), f"a {type(value).__name__}")
 
 
-def _is_number(value):
+def _is_number(value: object) -> bool:
     return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
 
 
-def _as_float(value):
+def _as_float(value: Any) -> np.float64:
     """``value`` as a float64, inf when a Python int is too large."""
     try:
         return np.float64(value)
@@ -133,17 +151,21 @@ def _as_float(value):
 class _Compiler:
     """Checks an AST against the whitelist and builds closures ``env -> array``."""
 
-    def __init__(self, variables, params, prefix, conditions):
+    used: set[str]                     # the variables met
+
+    def __init__(self, variables: tuple[str, ...], params: dict[str, np.float64], prefix: str,
+                 conditions: bool) -> None:
         self.variables, self.params, self.prefix = variables, params, prefix
         self.conditions, self.used = conditions, set()
-        self.rules = {ast.Constant: self._constant, ast.Name: self._name,
-                      ast.BinOp: self._binop, ast.UnaryOp: self._unaryop, ast.Call: self._call,
-                      ast.Compare: self._compare, ast.BoolOp: self._boolop}
+        self.rules: dict[type[ast.AST], Callable[[Any], Compiled]] = {
+            ast.Constant: self._constant, ast.Name: self._name,
+            ast.BinOp: self._binop, ast.UnaryOp: self._unaryop, ast.Call: self._call,
+            ast.Compare: self._compare, ast.BoolOp: self._boolop}
 
-    def fail(self, message):
+    def fail(self, message: str) -> NoReturn:
         _fail(self.prefix, message)
 
-    def build(self, node, kind):
+    def build(self, node: ast.AST, kind: str) -> Closure:
         """Closure of ``node``, which must evaluate to ``kind``."""
         rule = self.rules.get(type(node))
         if rule is None:
@@ -154,7 +176,7 @@ class _Compiler:
             self.fail(f"expected {kind}, got {got} ('{_snippet(node)}')")
         return function
 
-    def _constant(self, node):
+    def _constant(self, node: ast.Constant) -> Compiled:
         value = node.value
         if not _is_number(value):
             what = _LITERALS.get(type(value), f"'{_snippet(node)}' is")
@@ -164,7 +186,7 @@ class _Compiler:
             self.fail(f"number out of range ('{_snippet(node)}')")
         return NUMBER, lambda env: number
 
-    def _name(self, node):
+    def _name(self, node: ast.Name) -> Compiled:
         name = node.id
         if name.startswith("_"):
             self.fail(f"names starting with '_' are not allowed ('{name}')")
@@ -179,7 +201,7 @@ class _Compiler:
         known = [*self.variables, *self.params, *CONSTANTS]
         self.fail(f"unknown name '{name}' {_hint(name, known)}")
 
-    def _binop(self, node):
+    def _binop(self, node: ast.BinOp) -> Compiled:
         if isinstance(node.op, ast.BitXor):
             self.fail("'^' is not allowed (use ** for powers)")
         if type(node.op) not in _BINARY:
@@ -188,7 +210,7 @@ class _Compiler:
         left, right = self.build(node.left, NUMBER), self.build(node.right, NUMBER)
         return NUMBER, lambda env: ufunc(left(env), right(env))
 
-    def _unaryop(self, node):
+    def _unaryop(self, node: ast.UnaryOp) -> Compiled:
         if isinstance(node.op, ast.Not):
             if not self.conditions:
                 self.fail("'not' is only allowed in conditions")
@@ -199,7 +221,7 @@ class _Compiler:
         ufunc, operand = _UNARY[type(node.op)], self.build(node.operand, NUMBER)
         return NUMBER, lambda env: ufunc(operand(env))
 
-    def _call(self, node):
+    def _call(self, node: ast.Call) -> Compiled:
         if not isinstance(node.func, ast.Name):
             self.build(node.func, NUMBER)  # refuses attribute access and the like
             self.fail(f"only the known functions can be called ('{_snippet(node)}')")
@@ -218,7 +240,7 @@ class _Compiler:
             self.fail(f"{name}() takes {expected}, got {len(args)}")
         return NUMBER, lambda env: ufunc(*[arg(env) for arg in args])
 
-    def _compare(self, node):
+    def _compare(self, node: ast.Compare) -> Compiled:
         if not self.conditions:
             self.fail(f"comparisons are only allowed in conditions ('{_snippet(node)}')")
         for op in node.ops:
@@ -227,13 +249,13 @@ class _Compiler:
         ufuncs = [_COMPARE[type(op)] for op in node.ops]
         operands = [self.build(item, NUMBER) for item in [node.left, *node.comparators]]
 
-        def compare(env):
+        def compare(env: Env) -> Result:
             values = [_finite(operand(env)) for operand in operands]
             tests = [ufunc(a, b) for ufunc, a, b in zip(ufuncs, values, values[1:])]
             return functools.reduce(np.logical_and, tests)
         return CONDITION, compare
 
-    def _boolop(self, node):
+    def _boolop(self, node: ast.BoolOp) -> Compiled:
         word = "and" if isinstance(node.op, ast.And) else "or"
         if not self.conditions:
             self.fail(f"'{word}' is only allowed in conditions")
@@ -242,7 +264,7 @@ class _Compiler:
         return CONDITION, lambda env: functools.reduce(ufunc, [value(env) for value in values])
 
 
-def _parse(text, fail):
+def _parse(text: str, fail: Callable[[str], NoReturn]) -> ast.expr:
     """The AST of ``text``, refused fast when too long, too nested or too big."""
     _check_text(text, fail)
     try:
@@ -259,7 +281,7 @@ def _parse(text, fail):
     return tree.body
 
 
-def _check_text(text, fail):
+def _check_text(text: str, fail: Callable[[str], NoReturn]) -> None:
     """Linear-time limits checked before the parser sees ``text``."""
     if len(text) > MAX_LENGTH:
         fail(f"formula too long ({len(text)} characters, limit {MAX_LENGTH})")
@@ -272,7 +294,7 @@ def _check_text(text, fail):
         fail("empty formula")
 
 
-def _check_tree(root, fail):
+def _check_tree(root: ast.AST, fail: Callable[[str], NoReturn]) -> None:
     """Limits on the size and depth of the tree, checked without recursion."""
     count, stack = 0, [(root, 1)]
     while stack:
@@ -288,18 +310,19 @@ def _check_tree(root, fail):
 class _Expression:
     """What formulas and conditions share: names, evaluation, error points."""
 
-    _dtype = np.float64
+    _dtype: type[np.generic] = np.float64
 
-    def __init__(self, text, function, names, variables, prefix):
+    def __init__(self, text: str, function: Closure, names: Iterable[str],
+                 variables: Iterable[str], prefix: str) -> None:
         self.text, self.names, self.is_constant = text, frozenset(names), not names
         self._function, self._variables, self._prefix = function, tuple(variables), prefix
         if self.is_constant:
             self._constant = self._evaluate({})
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return f"{type(self).__name__}({self.text!r})"
 
-    def __call__(self, **variables):
+    def __call__(self, **variables: ArrayLike) -> NDArray[Any]:
         unexpected = sorted(set(variables) - set(self._variables))
         missing = sorted(self.names - set(variables))
         if unexpected or missing:
@@ -311,7 +334,7 @@ class _Expression:
         out[...] = result
         return out
 
-    def _evaluate(self, env, shape=()):
+    def _evaluate(self, env: Env, shape: tuple[int, ...] = ()) -> Result:
         try:
             with np.errstate(all="ignore"):
                 return self._function(env)
@@ -339,7 +362,7 @@ class Formula(_Expression):
     raised) at compile time.
     """
 
-    def value(self):
+    def value(self) -> float:
         """The value of a constant formula; :class:`FormulaError` otherwise."""
         if not self.is_constant:
             raise FormulaError(f"{self._prefix}: expected a constant, '{_shorten(self.text)}' "
@@ -356,7 +379,8 @@ class Condition(_Expression):
     _dtype = np.bool_
 
 
-def _compile(text, params, variables, prefix, conditions):
+def _compile(text: str, params: Mapping[str, float] | None, variables: tuple[str, ...],
+             prefix: str, conditions: bool) -> Formula | Condition:
     fail = functools.partial(_fail, prefix)
     compiler = _Compiler(variables, _check_params(params, variables, fail), prefix, conditions)
     node = _parse(text, fail)
@@ -366,7 +390,8 @@ def _compile(text, params, variables, prefix, conditions):
     return Formula(text, lambda env: _finite(inner(env)), compiler.used, variables, prefix)
 
 
-def _check_params(params, variables, fail):
+def _check_params(params: Mapping[str, float] | None, variables: tuple[str, ...],
+                  fail: Callable[[str], NoReturn]) -> dict[str, np.float64]:
     """The parameters as floats, after checking their names and values."""
     params = dict(params or {})
     for name, value in params.items():
@@ -384,8 +409,9 @@ def _check_params(params, variables, fail):
     return {name: _as_float(value) for name, value in params.items()}
 
 
-def compile_formula(text_or_number, params=None, variables=("x", "y"),
-                    source="<case>", key="<formula>"):
+def compile_formula(text_or_number: str | float, params: Mapping[str, float] | None = None,
+                    variables: Iterable[str] = ("x", "y"), source: str = "<case>",
+                    key: str = "<formula>") -> Formula:
     """Compile a formula string (or take a number) into a :class:`Formula`.
 
     ``params`` maps the names of the case parameters to numbers; ``variables``
@@ -395,7 +421,7 @@ def compile_formula(text_or_number, params=None, variables=("x", "y"),
     """
     prefix, variables = where(source, key), tuple(variables)
     if isinstance(text_or_number, str):
-        return _compile(text_or_number, params, variables, prefix, conditions=False)
+        return cast(Formula, _compile(text_or_number, params, variables, prefix, conditions=False))
     if not _is_number(text_or_number):
         _fail(prefix, f"expected a number or a formula string, got {_describe(text_or_number)}")
     _check_params(params, variables, functools.partial(_fail, prefix))
@@ -405,8 +431,9 @@ def compile_formula(text_or_number, params=None, variables=("x", "y"),
     return Formula(str(text_or_number), lambda env: number, (), variables, prefix)
 
 
-def compile_condition(text, params=None, variables=("x", "y"),
-                      source="<case>", key="<condition>"):
+def compile_condition(text: str, params: Mapping[str, float] | None = None,
+                      variables: Iterable[str] = ("x", "y"), source: str = "<case>",
+                      key: str = "<condition>") -> Condition:
     """Compile a condition string into a :class:`Condition` (bool-valued).
 
     Same grammar as :func:`compile_formula` plus comparisons (chainable, as in
@@ -414,4 +441,4 @@ def compile_condition(text, params=None, variables=("x", "y"),
     """
     if not isinstance(text, str):
         _fail(where(source, key), f"expected a condition string, got {_describe(text)}")
-    return _compile(text, params, tuple(variables), where(source, key), conditions=True)
+    return cast(Condition, _compile(text, params, tuple(variables), where(source, key), conditions=True))

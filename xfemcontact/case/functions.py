@@ -19,9 +19,13 @@ formula; :meth:`TimeFormula.at` gives the same load at another instant.
 """
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+
+from xfemcontact.case.formula import Formula
 
 EXTENSIONS = ("CONSTANT", "LINEAIRE", "EXCLU")
 
@@ -36,7 +40,7 @@ class Function:
     left: str = "EXCLU"          # PROL_GAUCHE
     right: str = "EXCLU"         # PROL_DROITE
 
-    def __call__(self, t):
+    def __call__(self, t: float) -> float:
         """The value at ``t`` (a number); ValueError outside an EXCLU end."""
         ts, fs = np.asarray(self.t, float), np.asarray(self.f, float)
         t = float(t)
@@ -59,7 +63,7 @@ class Function:
             return float(fs[j + 1])
         return float(fs[j] + (fs[j + 1] - fs[j]) * (t - ts[j]) / (ts[j + 1] - ts[j]))
 
-    def outside(self, instants):
+    def outside(self, instants: Iterable[float]) -> float | None:
         """The first of ``instants`` where the function has no value (EXCLU), or None."""
         lo, hi = self.t[0], self.t[-1]
         for t in instants:
@@ -77,21 +81,21 @@ class TimeFormula:
     formula only when it uses it, so its messages name the same point as before.
     """
 
-    def __init__(self, formula, mult: Function | None = None, t: float = 1.0):
+    def __init__(self, formula: Formula, mult: Function | None = None, t: float = 1.0) -> None:
         self.formula, self.mult, self.t = formula, mult, float(t)
         self.text = formula.text
         self.uses_time = "t" in formula.names or mult is not None
 
     @property
-    def names(self):
+    def names(self) -> frozenset[str]:
         return self.formula.names
 
     @property
-    def is_constant(self):
+    def is_constant(self) -> bool:
         """Constant in x, y (it may still vary in time)."""
         return not (self.formula.names - {"t"})
 
-    def value(self):
+    def value(self) -> float:
         """The value of a formula constant in x and y, at the bound instant."""
         if "t" in self.formula.names and self.is_constant:
             value = float(self.formula(t=self.t))
@@ -99,11 +103,11 @@ class TimeFormula:
             value = self.formula.value()
         return value * self.mult(self.t) if self.mult is not None else value
 
-    def at(self, t) -> TimeFormula:
+    def at(self, t: float) -> TimeFormula:
         """The same value at instant ``t``."""
         return TimeFormula(self.formula, self.mult, t)
 
-    def __call__(self, **xy):
+    def __call__(self, **xy: Any) -> Any:
         if "t" in self.formula.names:
             value = self.formula(t=self.t, **xy)
         else:
@@ -112,6 +116,6 @@ class TimeFormula:
             value = value * self.mult(self.t)
         return value
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         mult = f" * {self.mult.name}(t)" if self.mult is not None else ""
         return f"TimeFormula({self.text!r}{mult}, t={self.t:g})"

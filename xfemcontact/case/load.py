@@ -6,6 +6,8 @@ are compiled (not evaluated on a mesh).  Every refusal is one line,
 a :class:`CaseError`, or the :class:`FormulaError` of a formula or condition
 (same shape).
 """
+from __future__ import annotations
+
 import difflib
 import json
 import math
@@ -14,6 +16,7 @@ import re
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Callable, Iterable, NoReturn
 
 from xfemcontact.case import schema
 from xfemcontact.case.formula import (Condition, Formula, FormulaError, compile_condition,
@@ -30,30 +33,38 @@ __all__ = ["load_case", "Case", "MeshSpec", "Material", "Dirichlet", "Traction",
 @dataclass(frozen=True)
 class MeshSpec:
     file: Path | None                 # resolved; None for a rectangle
-    rectangle: dict | None            # keyword arguments of mesh.generate.rectangle
+    rectangle: dict[str, Any] | None  # keyword arguments of mesh.generate.rectangle
     refine: int
     key_file: str = "mesh.file"
 
 
+# The tables below hold the keys of their schema table (xfemcontact.case.schema, where
+# each key is described, once); tests/test_case.py checks that they match.
+
 @dataclass(frozen=True)
 class Material:
+    """``[material]``: E in Pa, nu, C_PLAN or D_PLAN."""
     E: float
     nu: float
-    model: str                        # "C_PLAN" | "D_PLAN"
+    model: str
 
 
 @dataclass(frozen=True)
 class Dirichlet:
-    groups: tuple
-    components: dict                  # {"DX": TimeFormula, "DY": TimeFormula}, those given only
+    """One ``[[dirichlet]]``: imposed displacements (m) on groups."""
+
+    groups: tuple[str, ...]
+    components: dict[str, TimeFormula]  # {"DX": TimeFormula, "DY": TimeFormula}, those given only
     key: str                          # "dirichlet[0]"
     fonc_mult: str | None = None      # name of the [functions] table multiplying it
 
 
 @dataclass(frozen=True)
 class Traction:
-    groups: tuple
-    force: dict | None                # {"FX": TimeFormula, "FY": TimeFormula} (missing one = 0)
+    """One ``[[traction]]``: a force per unit length (N/m) or a pressure (Pa) on edge groups."""
+
+    groups: tuple[str, ...]
+    force: dict[str, TimeFormula] | None  # {"FX": ..., "FY": ...} (missing one = 0)
     pressure: TimeFormula | None
     key: str                          # "traction[0]"
     fonc_mult: str | None = None
@@ -61,6 +72,7 @@ class Traction:
 
 @dataclass(frozen=True)
 class BodyForce:
+    """``[body_force]``: force per unit volume, N/m^3."""
     FX: TimeFormula
     FY: TimeFormula
     fonc_mult: str | None = None
@@ -74,7 +86,7 @@ class Instants:
     per later instant; ``given``: the case has ``[instants]`` (without, one step
     0 -> 1 and no cutting, ``action = "ARRET"``)."""
 
-    values: tuple
+    values: tuple[float, ...]
     given: bool
     action: str = "ARRET"             # "DECOUPE" | "ARRET"
     subd_pas: int = 4
@@ -84,7 +96,7 @@ class Instants:
     def last(self) -> float:
         return self.values[-1]
 
-    def match(self, t):
+    def match(self, t: float) -> float | None:
         """The instant of ``values`` equal to ``t`` to round-off, or None."""
         span = max(abs(self.values[-1] - self.values[0]), abs(self.values[-1]), 1e-300)
         for v in self.values:
@@ -95,38 +107,42 @@ class Instants:
 
 @dataclass(frozen=True)
 class Interface:
-    type: str                         # "INTERFACE"
+    """``[interface]``: the level set and the interface law."""
+    type: str
     level_set: Formula | None
     level_set_field: str | None
-    law: str                          # "contact" | "bonded" | "free"
-    max_offset: float = 0.5           # refused beyond (fraction of h), see preflight
+    law: str
+    max_offset: float = 0.5
 
 
 @dataclass(frozen=True)
 class Contact:
-    friction: bool                    # frottement == "COULOMB" and coulomb > 0
+    """``[contact]``: contact and friction settings."""
+    friction: bool                    # derived: frottement == "COULOMB" and coulomb > 0
     coulomb: float
-    coef_cont: float | None           # None: chosen from the material and mesh
+    coef_cont: float | None
     coef_frot: float | None
-    contact_init: bool | str          # True, False or "interpenetrated"
+    contact_init: bool | str
     seuil_init: float | None
     iter_cont_maxi: int
     iter_frot_maxi: int
     resi_frot: float
-    ordre_int: int | None             # None: chosen from the cut cells (see schema)
-    algo_lagr: str = "AUTO"           # AUTO (= VERSION3) | VERSION3 | NON
-    integration: str = "NOEUD"        # NOEUD | GAUSS
-    friction_unknown: str = "LAGS_F1"  # LAGS_F1 (semi-multiplier) | TRACTION
+    ordre_int: int | None
+    algo_lagr: str = "AUTO"
+    integration: str = "NOEUD"
+    friction_unknown: str = "LAGS_F1"
 
 
 @dataclass(frozen=True)
 class Newton:
+    """``[newton]``: Newton's tolerance and iterations."""
     resi_glob_rela: float
     iter_glob_maxi: int
 
 
 @dataclass(frozen=True)
 class TestSpec:
+    """One ``[[test]]`` of the test table."""
     __test__ = False                  # not a pytest test class
 
     name: str
@@ -134,7 +150,7 @@ class TestSpec:
     kind: str                         # "interface" | "node" | "cell"
     type: str                         # MIN | MAX | VALUE | SOMM_ABS | MAX_ERROR
     where: Condition | None
-    point: tuple | None
+    point: tuple[float, float] | None
     reference: float                  # 0 for MAX_ERROR
     tolerance: float
     criterion: str                    # "ABSOLU" | "RELATIF"
@@ -144,40 +160,44 @@ class TestSpec:
 
 @dataclass(frozen=True)
 class Output:
-    formats: tuple
+    """``[output]``: result formats and plots."""
+
+    formats: tuple[str, ...]
     plots: bool
 
 
 @dataclass(frozen=True)
 class Case:
+    """A checked case file, its formulas compiled."""
     path: Path                        # resolved path of the case file
     source: str                       # the path as the user gave it, for messages
     name: str                         # file stem
     title: str
-    params: dict
+    params: dict[str, float]
     mesh: MeshSpec
     material: Material
-    dirichlet: tuple
-    traction: tuple
+    dirichlet: tuple[Dirichlet, ...]
+    traction: tuple[Traction, ...]
     body_force: BodyForce | None
     interface: Interface | None
     contact: Contact
     newton: Newton
-    reference: dict                   # field -> TimeFormula (at the last instant)
-    tests: tuple
+    reference: dict[str, TimeFormula]  # field -> TimeFormula (at the last instant)
+    tests: tuple[TestSpec, ...]
     output: Output
     instants: Instants = Instants((0.0, 1.0), False)
-    functions: dict = None            # name -> Function (DEFI_FONCTION)
+    functions: dict[str, Function] | None = None   # name -> Function (DEFI_FONCTION)
 
-    def reference_at(self, t):
+    def reference_at(self, t: float) -> dict[str, TimeFormula]:
         """The reference formulas at instant ``t``."""
         return {name: f.at(t) for name, f in self.reference.items()}
 
-    def check_groups(self, available):
+    def check_groups(self, available: Iterable[str]) -> None:
         """Raise :class:`CaseError` for the first load group not in ``available``."""
         available = sorted(set(available))
         mesh = self.mesh.file.name if self.mesh.file is not None else "rectangle"
-        for load in (*self.dirichlet, *self.traction):
+        loads: tuple[Dirichlet | Traction, ...] = (*self.dirichlet, *self.traction)
+        for load in loads:
             for group in load.groups:
                 if group not in available:
                     close = _closest(group, available, cutoff=0.6)
@@ -190,7 +210,7 @@ class Case:
 
 # --- loading -------------------------------------------------------------------------------
 
-def load_case(path):
+def load_case(path: str | os.PathLike[str]) -> Case:
     """Read, check and compile the case file ``path``; :class:`CaseError` if anything is wrong."""
     source = _printable(os.fsdecode(path))
     path = Path(path)
@@ -205,7 +225,7 @@ def load_case(path):
     return case
 
 
-def _read_toml(path, source):
+def _read_toml(path: Path, source: str) -> dict[str, Any]:
     try:
         data = path.read_bytes()
     except FileNotFoundError:
@@ -220,7 +240,7 @@ def _read_toml(path, source):
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        line = data[:exc.start].count(b"\n") + 1
+        line: int | str = data[:exc.start].count(b"\n") + 1
         raise CaseError(f"{source}: line {line}: not UTF-8 text (save the case file as "
                         f"UTF-8)") from None
     try:
@@ -243,9 +263,11 @@ def _read_toml(path, source):
 class _Walker:
     """Checks raw TOML values against the schema and converts them."""
 
-    def __init__(self, source, folder):
+    params: dict[str, float]           # the case's parameters, once checked
+
+    def __init__(self, source: str, folder: Path) -> None:
         self.source, self.folder, self.params = source, folder, {}
-        self.convert = {
+        self.convert: dict[str, Callable[[schema.Key, Any, str, dict[str, Any]], Any]] = {
             "float": self._float, "int": self._int, "str": self._str,
             "choice": self._choice, "choices": self._choices, "formula": self._formula,
             "tformula": self._tformula, "numbers": self._numbers,
@@ -253,10 +275,10 @@ class _Walker:
             "interval": self._interval, "file": self._file, "table": self._table,
             "tables": self._tables}
 
-    def fail(self, at, message):
+    def fail(self, at: str, message: str) -> NoReturn:
         raise CaseError(f"{where(self.source, at)}: {message}")
 
-    def table(self, spec, raw, at):
+    def table(self, spec: schema.Table, raw: Any, at: str) -> dict[str, Any]:
         """The checked values of table ``raw``: every key of ``spec``, in order."""
         if not isinstance(raw, dict):
             self.fail(at, f"expected a table, got {_show(raw)}")
@@ -265,10 +287,11 @@ class _Walker:
                 if spec.extra is None:
                     self.fail(_join(at, name), f"unknown key {_suggest(name, spec.keys)}")
                 self._check_name(name, at)
+        rule: schema.Rule
         presence = [rule for rule in spec.rules if not isinstance(rule, schema.When)]
         for rule in presence:              # which keys are given, before their values
             self._rule(rule, raw, {}, at)
-        out = {}
+        out: dict[str, Any] = {}
         for name, key in spec.keys.items():
             here = _join(at, name)
             if name in raw:
@@ -282,16 +305,17 @@ class _Walker:
                                                                         here, out)
         for name in raw:
             if name not in spec.keys:
+                assert spec.extra is not None          # else refused above
                 out[name] = self.value(spec.extra, raw[name], _join(at, name), out)
         for rule in spec.rules:
             if isinstance(rule, schema.When):
                 self._rule(rule, raw, out, at)
         return out
 
-    def value(self, key, raw, at, siblings):
+    def value(self, key: schema.Key, raw: Any, at: str, siblings: dict[str, Any]) -> Any:
         return self.convert[key.type](key, raw, at, siblings)
 
-    def _check_name(self, name, at):
+    def _check_name(self, name: str, at: str) -> None:
         if not re.fullmatch(schema.PARAMETER_NAME, name):
             self.fail(_join(at, name), "not a valid name (ASCII letters, digits and '_', "
                                        "starting with a letter)")
@@ -301,7 +325,7 @@ class _Walker:
 
     # rules
 
-    def _rule(self, rule, raw, out, at):
+    def _rule(self, rule: schema.Rule, raw: dict[str, Any], out: dict[str, Any], at: str) -> None:
         if isinstance(rule, schema.ExactlyOne):
             if sum(name in raw for name in rule.keys) != 1:
                 self.fail(at, f"give exactly one of {_either(rule.keys)}")
@@ -328,14 +352,14 @@ class _Walker:
 
     # value types
 
-    def _number(self, raw, at, what="a number"):
+    def _number(self, raw: Any, at: str, what: str = "a number") -> int | float:
         if isinstance(raw, bool) or not isinstance(raw, (int, float)):
             self.fail(at, f"expected {what}, got {_show(raw)}")
         if not math.isfinite(raw):
             self.fail(at, f"expected a finite number, got {_show(raw)}")
         return raw
 
-    def _bounded(self, key, raw, at):
+    def _bounded(self, key: schema.Key, raw: Any, at: str) -> Any:
         value = raw
         if ((key.gt is not None and not value > key.gt) or (key.ge is not None and value < key.ge)
                 or (key.lt is not None and not value < key.lt)
@@ -343,19 +367,19 @@ class _Walker:
             self.fail(at, f"must be {schema.bounds(key)}, got {_show(raw)}")
         return value
 
-    def _float(self, key, raw, at, siblings):
+    def _float(self, key: schema.Key, raw: Any, at: str, siblings: dict[str, Any]) -> float:
         if isinstance(raw, str):
             hint = _unit_hint(raw, key.doc)
             if hint:
                 self.fail(at, f"expected a number, got {_show(raw)} ({hint})")
         return float(self._bounded(key, self._number(raw, at), at))
 
-    def _int(self, key, raw, at, siblings):
+    def _int(self, key: schema.Key, raw: Any, at: str, siblings: dict[str, Any]) -> int:
         if isinstance(raw, bool) or not isinstance(raw, int):
             self.fail(at, f"expected an integer, got {_show(raw)}")
         return self._bounded(key, raw, at)
 
-    def _str(self, key, raw, at, siblings):
+    def _str(self, key: schema.Key, raw: Any, at: str, siblings: dict[str, Any]) -> str:
         if not isinstance(raw, str):
             self.fail(at, f"expected a string, got {_show(raw)}")
         bad = next((i for i, c in enumerate(raw) if not c.isprintable()), None)
@@ -366,7 +390,7 @@ class _Walker:
             self.fail(at, f"too long ({len(raw)} characters, at most {key.max_length})")
         return raw
 
-    def _choice(self, key, raw, at, siblings):
+    def _choice(self, key: schema.Key, raw: Any, at: str, siblings: dict[str, Any]) -> Any:
         listed = ", ".join(key.choices)
         if key.booleans and isinstance(raw, bool):
             raw = "OUI" if raw else "NON"
@@ -385,14 +409,16 @@ class _Walker:
             self.fail(at, f"unknown value {_show(raw)} ({hint}expected one of {listed})")
         return canonical if key.values is None else key.values[canonical]
 
-    def _choices(self, key, raw, at, siblings):
+    def _choices(self, key: schema.Key, raw: Any, at: str,
+                 siblings: dict[str, Any]) -> tuple[Any, ...]:
         if not isinstance(raw, list):
             self.fail(at, f"expected an array of strings (among {', '.join(key.choices)}), "
                           f"got {_show(raw)}")
         items = [self._choice(key, item, f"{at}[{i}]", siblings) for i, item in enumerate(raw)]
         return tuple(dict.fromkeys(items))
 
-    def _formula(self, key, raw, at, siblings, variables=("x", "y")):
+    def _formula(self, key: schema.Key, raw: Any, at: str, siblings: dict[str, Any],
+                 variables: tuple[str, ...] = ("x", "y")) -> Formula:
         try:
             return _single_line(compile_formula, raw, self.params, source=self.source, key=at,
                                 variables=variables)
@@ -403,21 +429,25 @@ class _Walker:
                                    f"got {_show(raw)} ({hint})") from None
             raise exc from None
 
-    def _tformula(self, key, raw, at, siblings):
+    def _tformula(self, key: schema.Key, raw: Any, at: str, siblings: dict[str, Any]) -> Formula:
         """A formula of x, y and t (bound to an instant when the case is built)."""
         return self._formula(key, raw, at, siblings, variables=("x", "y", "t"))
 
-    def _numbers(self, key, raw, at, siblings):
+    def _numbers(self, key: schema.Key, raw: Any, at: str,
+                 siblings: dict[str, Any]) -> tuple[float, ...]:
         if not isinstance(raw, list) or not raw:
             self.fail(at, f"expected a non-empty array of numbers, got {_show(raw)}")
         return tuple(float(self._number(item, f"{at}[{i}]")) for i, item in enumerate(raw))
 
-    def _condition(self, key, raw, at, siblings):
+    def _condition(self, key: schema.Key, raw: Any, at: str,
+                   siblings: dict[str, Any]) -> Condition:
+        assert key.variables is not None and key.context is not None    # condition keys have both
         variables = key.variables[siblings[key.context]]
         return _single_line(compile_condition, raw, self.params, variables=variables,
                             source=self.source, key=at)
 
-    def _names(self, key, raw, at, siblings):
+    def _names(self, key: schema.Key, raw: Any, at: str,
+               siblings: dict[str, Any]) -> tuple[str, ...]:
         items = [raw] if isinstance(raw, str) else raw
         if not isinstance(items, list) or not items:
             self.fail(at, f"expected a group name or a non-empty array of names, "
@@ -428,21 +458,23 @@ class _Walker:
                 self.fail(here, f"expected a group name, got {_show(item)}")
         return tuple(dict.fromkeys(items))
 
-    def _pair(self, raw, at, what):
+    def _pair(self, raw: Any, at: str, what: str) -> tuple[float, ...]:
         if not isinstance(raw, list) or len(raw) != 2:
             self.fail(at, f"expected an array of two numbers {what}, got {_show(raw)}")
         return tuple(float(self._number(item, f"{at}[{i}]")) for i, item in enumerate(raw))
 
-    def _point(self, key, raw, at, siblings):
+    def _point(self, key: schema.Key, raw: Any, at: str,
+               siblings: dict[str, Any]) -> tuple[float, ...]:
         return self._pair(raw, at, "[x, y]")
 
-    def _interval(self, key, raw, at, siblings):
+    def _interval(self, key: schema.Key, raw: Any, at: str,
+                  siblings: dict[str, Any]) -> tuple[float, float]:
         low, high = self._pair(raw, at, "[min, max]")
         if not low < high:
             self.fail(at, f"must be increasing [min, max], got {_show(raw)}")
         return low, high
 
-    def _file(self, key, raw, at, siblings):
+    def _file(self, key: schema.Key, raw: Any, at: str, siblings: dict[str, Any]) -> Path:
         if not isinstance(raw, str):
             self.fail(at, f"expected a string, got {_show(raw)}")
         name = raw
@@ -460,16 +492,21 @@ class _Walker:
                           f"regular file)")
         return path
 
-    def _table(self, key, raw, at, siblings):
+    def _table(self, key: schema.Key, raw: Any, at: str, siblings: dict[str, Any]) -> dict[str, Any]:
+        assert key.table is not None                                      # table keys have it
         return self.table(key.table, raw, at)
 
-    def _tables(self, key, raw, at, siblings):
+    def _tables(self, key: schema.Key, raw: Any, at: str,
+                siblings: dict[str, Any]) -> tuple[dict[str, Any], ...]:
+        assert key.table is not None
         if not isinstance(raw, list):
             self.fail(at, f"expected an array of tables ([[{at}]]), got {_show(raw)}")
-        return tuple(self.table(key.table, item, f"{at}[{i}]") for i, item in enumerate(raw))
+        table = key.table
+        return tuple(self.table(table, item, f"{at}[{i}]") for i, item in enumerate(raw))
 
 
-def _single_line(compile_, raw, params, **kwargs):
+def _single_line(compile_: Callable[..., Any], raw: Any, params: dict[str, float],
+                 **kwargs: Any) -> Any:
     """Compile; a FormulaError goes through, its message made printable on one line."""
     try:
         return compile_(raw, params, **kwargs)
@@ -487,7 +524,7 @@ _WITH_UNIT = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"   # a 
                         r"\s*([^\d\s.,+*/()-][^\s]*)\s*")                     # a unit
 
 
-def _unit_hint(text, doc, strict=False):
+def _unit_hint(text: str, doc: str, strict: bool = False) -> str | None:
     """What to write instead of a number with a unit (``"210 GPa"``), or None.
 
     The key's unit is read from its documentation (``"... in Pa"``); a unit
@@ -498,8 +535,8 @@ def _unit_hint(text, doc, strict=False):
     if not found:
         return None
     number, unit = found.group(1), found.group(2)
-    si = re.search(r"\bin ([A-Za-z][A-Za-z/^0-9]*)", doc)
-    si = si.group(1) if si else None
+    unit_doc = re.search(r"\bin ([A-Za-z][A-Za-z/^0-9]*)", doc)
+    si = unit_doc.group(1) if unit_doc else None
     if si and unit.endswith(si) and unit[:len(unit) - len(si)] in _PREFIXES:
         value = float(number) * _PREFIXES[unit[:len(unit) - len(si)]]
         return f"write numbers without units, in {si}: {value:g}"
@@ -510,7 +547,8 @@ def _unit_hint(text, doc, strict=False):
 
 # --- building the case ---------------------------------------------------------------------
 
-def _build(v, path, source, params, fail):
+def _build(v: dict[str, Any], path: Path, source: str, params: dict[str, float],
+           fail: Callable[[str, str], NoReturn]) -> Case:
     mesh, contact, test_specs = v["mesh"], v["contact"], []
     instants = _instants(v["instants"], fail)
     functions = _functions(v["functions"], fail)
@@ -660,7 +698,7 @@ def _functions(table, fail):
     return out
 
 
-def _kind(path):
+def _kind(path: Path) -> str:
     """What a path that is not a regular file is, in words."""
     import stat
 
@@ -676,9 +714,9 @@ def _kind(path):
     return "not a regular file"
 
 
-def _check_case(case, fail):
+def _check_case(case: Case, fail: Callable[[str, str], NoReturn]) -> None:
     """The checks that involve several tables."""
-    names = {}
+    names: dict[str, str] = {}
     for test in case.tests:
         if test.name in names:
             fail(f"{test.key}.name", f"duplicate test name {_show(test.name)} (also "
@@ -705,22 +743,22 @@ def _check_case(case, fail):
 _BARE = re.compile(r"[A-Za-z0-9_-]+")
 
 
-def _join(at, name):
+def _join(at: str, name: str) -> str:
     name = name if _BARE.fullmatch(name) else _show(name)
     return f"{at}.{name}" if at else name
 
 
-def _printable(text):
+def _printable(text: str) -> str:
     """``text`` with every non-printable character escaped: always one line."""
     return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii")
                    for c in text)
 
 
-def _shorten(text, limit=60):
+def _shorten(text: str, limit: int = 60) -> str:
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
-def _show(value, depth=0):
+def _show(value: object, depth: int = 0) -> str:
     """A TOML value as written in messages: ``"abc"``, ``true``, ``-1``, ``[0, 1]``."""
     if isinstance(value, bool):
         return "true" if value else "false"
@@ -740,7 +778,7 @@ def _show(value, depth=0):
     return _shorten(_printable(repr(value)))
 
 
-def _suggest(name, known):
+def _suggest(name: str, known: Iterable[str]) -> str:
     """``(did you mean 'x'?)`` for the closest known name, else the list of known names."""
     known = list(known)
     folded = {k.casefold(): k for k in known}
@@ -753,7 +791,7 @@ def _suggest(name, known):
     return f"(known: {', '.join(known)})"
 
 
-def _closest(name, known, cutoff=0.5):
+def _closest(name: str, known: Iterable[str], cutoff: float = 0.5) -> str | None:
     """The most similar of ``known`` (the first one on ties), None if none is close."""
     best, best_ratio = None, cutoff
     for candidate in known:
@@ -763,10 +801,10 @@ def _closest(name, known, cutoff=0.5):
     return best
 
 
-def _group(keys):
+def _group(keys: Iterable[str]) -> str:
     return "/".join(f"'{k}'" for k in keys)
 
 
-def _either(keys):
+def _either(keys: Iterable[str]) -> str:
     quoted = [f"'{k}'" for k in keys]
     return quoted[0] if len(quoted) == 1 else f"{', '.join(quoted[:-1])} or {quoted[-1]}"

@@ -41,9 +41,12 @@ Value types (``Key.type``):
 * ``table``: a sub-table, described by ``table``.
 * ``tables``: an array of tables (``[[name]]``), stored as a tuple.
 """
+from __future__ import annotations
+
 import json
 import keyword
 from dataclasses import dataclass, field
+from typing import Any
 
 from xfemcontact.case.formula import CONSTANTS, FUNCTIONS
 from xfemcontact.contact import laws
@@ -100,18 +103,18 @@ class Key:
     type: str
     doc: str
     required: bool = False
-    default: object = None
+    default: object = None            # as written in TOML
     gt: float | None = None
     ge: float | None = None
     lt: float | None = None
     le: float | None = None
-    choices: tuple = ()
-    values: dict | None = None
+    choices: tuple[str, ...] = ()
+    values: dict[str, Any] | None = None
     booleans: bool = False
-    refused: dict = field(default_factory=dict)
-    table: "Table | None" = None
+    refused: dict[str, str] = field(default_factory=dict)
+    table: Table | None = None
     context: str | None = None
-    variables: dict | None = None
+    variables: dict[str, tuple[str, ...]] | None = None
     max_length: int = 200
 
 
@@ -119,22 +122,22 @@ class Key:
 class ExactlyOne:
     """Exactly one of ``keys`` must be given."""
 
-    keys: tuple
+    keys: tuple[str, ...]
 
 
 @dataclass(frozen=True)
 class AtLeastOne:
     """At least one of ``keys`` must be given."""
 
-    keys: tuple
+    keys: tuple[str, ...]
 
 
 @dataclass(frozen=True)
 class NotBoth:
     """Keys of group ``first`` and of group ``second`` cannot be given together."""
 
-    first: tuple
-    second: tuple
+    first: tuple[str, ...]
+    second: tuple[str, ...]
 
 
 @dataclass(frozen=True)
@@ -142,38 +145,43 @@ class When:
     """When the (checked) value of ``key`` is in ``values``: ``require`` / ``forbid`` keys."""
 
     key: str
-    values: tuple
-    require: tuple = ()
-    forbid: tuple = ()
+    values: tuple[object, ...]
+    require: tuple[str, ...] = ()
+    forbid: tuple[str, ...] = ()
     hint: str = ""
+
+
+#: a rule of a :class:`Table`
+Rule = ExactlyOne | AtLeastOne | NotBoth | When
 
 
 @dataclass(frozen=True)
 class Table:
     """A TOML table: its keys in checking order, its rules, and what its free keys are."""
 
-    keys: dict
+    keys: dict[str, Key]
     doc: str = ""
-    rules: tuple = ()
+    rules: tuple[Rule, ...] = ()
     extra: Key | None = None          # type of the keys not listed (free names)
 
 
-def flag(doc, default):
+def flag(doc: str, default: object) -> Key:
     """A boolean key: true/false or "OUI"/"NON"."""
     return Key("choice", doc, default=default, choices=tuple(BOOLEAN), values=BOOLEAN,
                booleans=True)
 
 
-def formula(doc, **kwargs):
+def formula(doc: str, **kwargs: Any) -> Key:
+    """A formula key (a number or a formula of x, y and the parameters)."""
     return Key("formula", doc, **kwargs)
 
 
-def tformula(doc, **kwargs):
+def tformula(doc: str, **kwargs: Any) -> Key:
     """A number or a formula of x, y and the instant t (loads, references)."""
     return Key("tformula", doc, **kwargs)
 
 
-def fonc_mult():
+def fonc_mult() -> Key:
     return Key("str", "name of a [functions] table multiplying this load's values at each "
                "instant (FONC_MULT)", max_length=100)
 
@@ -378,24 +386,25 @@ CASE = Table({
 }, doc="an X-FEM contact case")
 
 
-def bounds(key):
+def bounds(key: Key) -> str:
     """The range of a numeric key in words, such as ``"> -1 and < 0.5"`` ("" if none)."""
     parts = [f"{op} {_number(limit)}" for op, limit in
              ((">", key.gt), (">=", key.ge), ("<", key.lt), ("<=", key.le)) if limit is not None]
     return " and ".join(parts)
 
 
-def _number(value):
+def _number(value: float) -> str:
     """``1000000`` for whole numbers (as written in a case file), ``0.5`` otherwise."""
     return str(int(value)) if float(value).is_integer() and abs(value) < 1e15 else f"{value:g}"
 
 
-def reference(table=CASE, prefix=""):
+def reference(table: Table = CASE, prefix: str = "") -> list[str]:
     """A plain-text reference of the format: one line per key, from the schema."""
     lines = []
     for name, key in table.keys.items():
         dotted = f"{prefix}.{name}" if prefix else name
         if key.type in ("table", "tables"):
+            assert key.table is not None          # table keys have their table
             brackets = ("{} = [{{...}}, ...]" if prefix else "[[{}]]") if key.type == "tables" \
                 else "[{}]"
             lines.append(f"{brackets.format(dotted):26} {key.doc}")

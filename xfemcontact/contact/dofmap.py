@@ -6,19 +6,36 @@ of their representative).  This module finds the global LAGS_C index of every
 carrier (LAGS_F1 is the next index) and, for the matrix pattern, the point of
 each carrier: a local node, or a "remote point" numbered after the local nodes.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from xfemcontact.contact.space import MultiplierSpace
+    from xfemcontact.dofs.layout import DofLayout
+    from xfemcontact.mesh.plex import LocalMesh
+    from xfemcontact.xfem.cut import Segments
+
+    IntArray = NDArray[np.int64]
 
 
 @dataclass
 class MultiplierDofs:
-    rep_index: np.ndarray        # (k, m) global LAGS_C index of each segment cell's carriers (-1 pad)
-    remote_points: tuple         # (global index, dofs per point, owner rank) of remote carriers
-    element_points: np.ndarray   # (k, nn + m) pattern points of each interface element
+    """Where the multipliers of the interface elements are (see the module documentation)."""
+
+    rep_index: IntArray          # (k, m) global LAGS_C index of each segment cell's carriers (-1 pad)
+    #: (global index, dofs per point, owner rank), each ``(r,)``, of the remote carriers
+    remote_points: tuple[IntArray, IntArray, IntArray]
+    element_points: IntArray     # (k, nn + m) pattern points of each interface element
 
 
-def multiplier_dofs(mesh, layout, space, segments):
+def multiplier_dofs(mesh: LocalMesh, layout: DofLayout, space: MultiplierSpace,
+                    segments: Segments) -> MultiplierDofs:
     """The :class:`MultiplierDofs` of the interface ``segments`` (collective)."""
     own = layout.multiplier & mesh.node_owned
     mpi = mesh.comm.tompi4py()
@@ -43,6 +60,7 @@ def multiplier_dofs(mesh, layout, space, segments):
     else:
         local = np.zeros(rep.shape, bool)
         point = np.full(rep.shape, -1)
+    remote_ids: IntArray
     remote_ids, rpos = np.unique(rep[~local & live], return_inverse=True)
     point[~local & live] = len(mesh.x) + rpos
     rp = np.searchsorted(ids, remote_ids)

@@ -32,9 +32,18 @@ converged (SSNV509: one factorisation instead of two).  LAGS_F1 is reported as
 T / (mu LAGS_C) at each point, which in slip zones is 1 only up to the
 discretisation error (the default form gives exactly 1 there).
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
 
 STICK_TOL = 1e-12          # |gt| <= 1 + STICK_TOL is stick (code_aster)
 THRESHOLD_ZERO = 1e-11     # |s| below this (Pa) is taken as 0 (code_aster XREACL)
@@ -42,6 +51,7 @@ THRESHOLD_ZERO = 1e-11     # |s| below this (Pa) is taken as 0 (code_aster XREAC
 
 @dataclass
 class PointLaw:
+    """The coefficients of the law at the Gauss points."""
     coef_cont: float       # rho_n, Pa/m
     coef_frot: float       # rho_t, 1/m
     mu: float              # Coulomb coefficient (0: frictionless)
@@ -50,7 +60,9 @@ class PointLaw:
     rho_T: float = 1.0     # traction form: fixed augmentation, Pa/m
 
 
-def point_terms(law, chi, s, g, ut, lam, Lam, held=None):
+def point_terms(law: PointLaw, chi: IntArray, s: FloatArray, g: FloatArray, ut: FloatArray,
+                lam: FloatArray, Lam: FloatArray,
+                held: FloatArray | None = None) -> dict[str, FloatArray]:
     """Coefficients of the residual and tangent at every point (arrays of one shape).
 
     ``held``: optional friction statuses imposed on the points (0 stick, +-1 slip
@@ -88,7 +100,9 @@ def point_terms(law, chi, s, g, ut, lam, Lam, held=None):
     return t
 
 
-def _traction_terms(law, t, active, musig, ut, T, stick, status):
+def _traction_terms(law: PointLaw, t: dict[str, FloatArray], active: FloatArray, musig: FloatArray,
+                    ut: FloatArray, T: FloatArray, stick: FloatArray,
+                    status: FloatArray) -> dict[str, FloatArray]:
     """Friction terms with the tangential traction T (Pa) as unknown."""
     rho = law.rho_T
     P = np.where(stick, T + rho * ut, np.abs(musig) * status)   # the projected trial traction
@@ -101,7 +115,8 @@ def _traction_terms(law, t, active, musig, ut, T, stick, status):
     return t
 
 
-def friction_status(law, chi, s, ut, Lam, held=None):
+def friction_status(law: PointLaw, chi: IntArray, s: FloatArray, ut: FloatArray, Lam: FloatArray,
+                    held: FloatArray | None = None) -> FloatArray:
     """Friction status of every point: 0 stick (or friction inactive), +-1 slip in
     that direction, from the trial value (LAGS_F1 - COEF_FROT ut against 1, or
     T + rho_T ut against mu |s|) unless ``held`` imposes it (not NaN there)."""
@@ -116,7 +131,7 @@ def friction_status(law, chi, s, ut, Lam, held=None):
     return np.where(active, status, 0.0)
 
 
-def semi_multiplier(law, s, F):
+def semi_multiplier(law: PointLaw, s: FloatArray, F: FloatArray) -> FloatArray:
     """LAGS_F1 from the friction dof values ``F`` at points with thresholds ``s``."""
     if law.unknown != "traction":
         return F
@@ -125,7 +140,8 @@ def semi_multiplier(law, s, F):
         return np.where(np.abs(musig) > 0, F / musig, 0.0)
 
 
-def update_status(law, chi, g, lam, gap_tol=1e-16, release_tol=2.2e-16):
+def update_status(law: PointLaw, chi: IntArray, g: FloatArray, lam: FloatArray,
+                  gap_tol: float = 1e-16, release_tol: float = 2.2e-16) -> IntArray:
     """code_aster's status test after Newton: returns the new statuses.
 
     Not in contact -> in contact when it interpenetrates (-g > gap_tol);
@@ -137,6 +153,6 @@ def update_status(law, chi, g, lam, gap_tol=1e-16, release_tol=2.2e-16):
     return new
 
 
-def threshold(lam):
+def threshold(lam: FloatArray) -> FloatArray:
     """New friction threshold s = lam (0 where |lam| < THRESHOLD_ZERO)."""
     return np.where(np.abs(lam) < THRESHOLD_ZERO, 0.0, lam)

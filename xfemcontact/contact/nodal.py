@@ -52,14 +52,26 @@ Arrays here are per dof (any shape, all the same); statuses: ``chi`` 1 in
 contact, 0 not; ``slip`` 0 stick, +-1 slip direction (also 0 where friction is
 inactive).
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
 
 #: relative round-off allowed in the status tests (a value within it of a
 #: bound does not change a status)
 ROUNDOFF = 1e-12
 
 
-def contact_status(chi, lam, gn, tol_lam, tol_gap):
+def contact_status(chi: IntArray, lam: FloatArray, gn: FloatArray, tol_lam: float,
+                   tol_gap: float) -> IntArray:
     """New contact statuses: release where lam > tol_lam, enter where gn < -tol_gap."""
     new = chi.copy()
     new[(chi == 1) & (lam > tol_lam)] = 0
@@ -67,7 +79,8 @@ def contact_status(chi, lam, gn, tol_lam, tol_gap):
     return new
 
 
-def friction_status(slip, active, T, gt, bound, tol_slip):
+def friction_status(slip: FloatArray, active: BoolArray, T: FloatArray, gt: FloatArray,
+                    bound: FloatArray, tol_slip: float) -> FloatArray:
     """New friction statuses of dofs with statuses ``slip`` (0 stick, +-1).
 
     ``active``: friction on (in contact with a non-zero threshold); ``bound``:
@@ -80,7 +93,8 @@ def friction_status(slip, active, T, gt, bound, tol_slip):
     return np.where(active, new, 0.0)
 
 
-def terms(chi, slip, active, lam, T, bound, D, rho_n, rho_T):
+def terms(chi: IntArray, slip: FloatArray, active: BoolArray, lam: FloatArray, T: FloatArray,
+          bound: FloatArray, D: FloatArray, rho_n: float, rho_T: float) -> dict[str, FloatArray]:
     """Coefficients of the nodal equations for given statuses.
 
     Returns a dict of arrays: ``cn``, ``ct`` (Pa): the normal and tangential
@@ -105,13 +119,13 @@ def terms(chi, slip, active, lam, T, bound, D, rho_n, rho_T):
     }
 
 
-def threshold(lam, scale):
+def threshold(lam: FloatArray, scale: float) -> FloatArray:
     """New friction thresholds s = min(lam, 0), 0 where |lam| <= ROUNDOFF * scale."""
     s = np.minimum(lam, 0.0)
     return np.where(np.abs(s) <= ROUNDOFF * scale, 0.0, s)
 
 
-def semi_multiplier(T, s, mu):
+def semi_multiplier(T: FloatArray, s: FloatArray, mu: float) -> FloatArray:
     """LAGS_F1 = T / (mu s) (0 where mu s = 0): the traction as code_aster's semi-multiplier."""
     musig = mu * s
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -174,6 +174,13 @@ class NodalContactProblem(InterfaceProblem):
             self._mpi.Allreduce(MPI.IN_PLACE, out, op=MPI.MIN)
         return out
 
+    def _mean_divisor(self):
+        """The lumped weights D_a ``(k, m)`` that turn the weighted gap and slip into
+        mean ones (1 on empty slots).  D_a can be negative where extrapolated weak
+        vertices give phi_a negative parts: the mean keeps its sign (a constant jump
+        has that constant as mean at every dof), which the status rules need."""
+        return np.where(self.slot & (self._D != 0), self._D, 1.0)
+
     def _max(self, a):
         return self._mpi.allreduce(float(np.abs(a).max(initial=0.0)), op=MPI.MAX)
 
@@ -241,7 +248,7 @@ class NodalContactProblem(InterfaceProblem):
         """The friction statuses the rules give at ``x`` from the committed ones, and
         the values they come from: ``(slip, h, lam, T, active, bound)``."""
         ve, h, lam, T = self._values(x)
-        D = np.where(self.slot & (self._D > 0), self._D, 1.0)
+        D = self._mean_divisor()
         active, bound = self._bounds()
         if self._h0 is None:
             gt = self._assembled(np.zeros(lam.shape), np.einsum("kmd,kd->km", self._Bt, h))[1] / D
@@ -350,7 +357,7 @@ class NodalContactProblem(InterfaceProblem):
         if self.unbounded or self.free_start:
             return 0
         ve, h, lam, T = self._values(x)
-        D = np.where(self.slot & (self._D > 0), self._D, 1.0)
+        D = self._mean_divisor()
         gn = self._assembled(np.einsum("kmd,kd->km", self._Bn, h), np.zeros(lam.shape))[0] / D
         tol_lam = self._lam_zero(lam)
         tol_gap = nodal.ROUNDOFF * max(self._gap_scale(h), self._floor_gap)
@@ -363,18 +370,31 @@ class NodalContactProblem(InterfaceProblem):
         # after a threshold update, evaluated no tangent): they count as changes too
         slip = self._friction_statuses(x)[0] if self.friction else self.slip
         held = slip != self.slip
+        lam_eq, T_eq = self._equilibrium_tractions(lam, T)      # those x was solved with
         self.slip = np.where(changed, 0.0, slip)       # a dof entering contact starts sticking
         self.chi = new
         count = self._count(changed | held)
-        switched = self._admissible_vertices(lam, T, tol_lam)
+        switched = self._admissible_vertices(lam_eq, T_eq, tol_lam)
         if switched:
             self._functions()
         return count + switched
 
+    def _equilibrium_tractions(self, lam, T):
+        """The dof tractions ``(lam, T)`` the equilibrium of the current statuses
+        holds: 0 where not in contact, the bound mu |s| p where slipping.  (The dofs
+        themselves hold these only to the accuracy of their rows, which rho_n and
+        rho_T scale: far more than round-off when rho_T / D_a is large.)"""
+        lam = np.where(self.chi == 1, lam, 0.0)
+        if self.friction and not self.unbounded:
+            active, bound = self._bounds()
+            T = np.where(active & (self.slip != 0), bound * self.slip, T)
+        return lam, T
+
     def _inadmissible(self, lam, T, tol_lam):
         """``(n_dep,)`` whether the extrapolated values of each dependent vertex leave
-        the admissible set (lam > 0, threshold > 0, |T| > mu |s|) for the dof values
-        ``lam``, ``T`` and the current thresholds."""
+        the admissible set (lam > 0, threshold > 0, |T| > mu |s|) for the dof
+        tractions ``lam``, ``T`` (:meth:`_equilibrium_tractions`) and the current
+        thresholds."""
         T_ext = self.space.T
         bad = self._dep_value(np.einsum("kvm,km->kv", T_ext, lam)) > tol_lam
         if self.friction and not self.unbounded:
@@ -397,7 +417,8 @@ class NodalContactProblem(InterfaceProblem):
         """At a threshold update: dependent vertices switched to their convex
         combination go back to the extrapolation where it is admissible now, so that
         a switch made far from the solution does not outlive it."""
-        back = ~self.extrapolated & ~self._inadmissible(lam, T, self._lam_zero(lam))
+        back = ~self.extrapolated & ~self._inadmissible(*self._equilibrium_tractions(lam, T),
+                                                        self._lam_zero(lam))
         if back.any():
             self.extrapolated |= back
             self._functions()

@@ -47,17 +47,37 @@ partition:
    where a merge would force zero variation along the edge.  The reported
    smallest eigenvalue is that of the packet with the merge.  Neighbouring
    ties (a flat stretch) may take each other's roots: every tie is finally
-   written in free carriers.
+   written in free carriers.  A gradient tie keeps linear fields, the signed
+   distance of a straight stretch among them, whose trace is zero: where the
+   final space has a kernel again, the ties of that set go back to merges.
 
 Merged vertices share the dof held by the representative (the smallest input
 node index of the class).
 """
+from __future__ import annotations
+
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Collection
 
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from xfemcontact.fem.elements import Element
+    from xfemcontact.mesh.plex import LocalMesh
+    from xfemcontact.xfem.cut import Segments
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+    #: a vertex given by others: global id -> (root global ids (r,), weights (r,))
+    Combinations = dict[int, tuple[IntArray, FloatArray]]
+    #: a scipy.sparse matrix (SciPy has no type information here)
+    Sparse = Any
 
 #: least interface weight of a vertex carrying multipliers, by cell type: measured
 #: on sweeps of the SSNV509 arc across the mesh (bilinear traces on QUAD8 keep
@@ -79,13 +99,13 @@ SINGULAR = 1e-10
 class SegmentTopology:
     """Where the interface meets the boundary of each owning cell."""
 
-    cut_edges: np.ndarray      # (k, 2, 2) global ids (a, b) of the edge of P1, P2 (-1 if at a vertex)
-    r: np.ndarray              # (k, 2) position of P1, P2 on that edge from a, in (0, 1)
-    verts: np.ndarray          # (k, nv) global ids of the cell's vertices
-    xv: np.ndarray             # (k, nv, 2) vertex coordinates, m
+    cut_edges: IntArray        # (k, 2, 2) global ids (a, b) of the edge of P1, P2 (-1 if at a vertex)
+    r: FloatArray              # (k, 2) position of P1, P2 on that edge from a, in (0, 1)
+    verts: IntArray            # (k, nv) global ids of the cell's vertices
+    xv: FloatArray             # (k, nv, 2) vertex coordinates, m
 
 
-def topology(mesh, segments):
+def topology(mesh: LocalMesh, segments: Segments) -> SegmentTopology:
     """SegmentTopology of ``segments`` (cut.Segments) of local cells."""
     el = mesh.element
     k = len(segments)
@@ -109,40 +129,47 @@ def topology(mesh, segments):
 
 @dataclass
 class MultiplierSpace:
-    ids: np.ndarray            # sorted global ids of every carrying vertex (all processes)
-    rep: np.ndarray            # representative global id of each
-    topo: SegmentTopology      # of this process's segments
-    carriers_of: np.ndarray    # (k, m) carrier global ids used by each segment cell (-1 pad)
-    T: np.ndarray              # (k, nv, m) vertex values = T @ carrier values
-    T_convex: np.ndarray = None  # (k, nv, m) the same with weak vertices as convex combinations
+    """The multiplier space (see the module documentation)."""
+
+    ids: IntArray              # sorted global ids of every carrying vertex (all processes)
+    rep: IntArray              # representative global id of each
+    topo: SegmentTopology | None   # of this process's segments (None: an empty space)
+    carriers_of: IntArray      # (k, m) carrier global ids used by each segment cell (-1 pad)
+    T: FloatArray              # (k, nv, m) vertex values = T @ carrier values
+    T_convex: FloatArray | None = None  # (k, nv, m) the same with weak vertices as convex combinations
     n_packets: int = 0
     n_ties: int = 0
     n_weak: int = 0
     smallest: float = np.inf   # smallest scaled trace eigenvalue over the packets, after ties
     algo: str = "AUTO"
-    tie_edges: list = field(default_factory=list)   # [(a, b, packet eigenvalue)], global ids
+    #: [(a, b, packet eigenvalue)], global ids
+    tie_edges: list[tuple[int, int, float]] = field(default_factory=list)
 
-    def representative(self, gids):
+    def representative(self, gids: IntArray) -> IntArray:
+        """Representative global ids of carriers ``gids`` (any shape)."""
         return self.rep[np.searchsorted(self.ids, gids)]
 
-    def carriers(self, mesh):
+    def carriers(self, mesh: LocalMesh) -> BoolArray:
         """(n,) bool: local vertices holding multiplier dofs (representatives)."""
         out = np.zeros(len(mesh.x), dtype=bool)
         out[: mesh.n_vertices] = np.isin(mesh.node_ids[: mesh.n_vertices], np.unique(self.rep))
         return out
 
-    def functions(self, lin):
+    def functions(self, lin: FloatArray) -> FloatArray:
         """Multiplier functions ``(k, ..., m)`` from linear companion values ``lin (k, ..., nv)``."""
         return np.einsum("k...v,kvm->k...m", lin, self.T)
 
-    def summary(self):
+    def summary(self) -> dict[str, Any]:
+        """What results.json says about the space."""
         return {"algo_lagr": self.algo,
                 "carriers": int(len(np.unique(self.rep))),
                 "weak_vertices": self.n_weak, "packets": self.n_packets, "ties": self.n_ties,
                 "smallest_trace_eigenvalue": float(self.smallest)}
 
 
-def build(mesh, segments, algo="AUTO", lin_at_points=None, weights=None):
+def build(mesh: LocalMesh, segments: Segments, algo: str = "AUTO",
+          lin_at_points: FloatArray | None = None,
+          weights: FloatArray | None = None) -> MultiplierSpace:
     """The multiplier space of the interface ``segments`` (all of this process's).
 
     ``lin_at_points (k, ng, nv)``: linear companion functions at the segments'
@@ -178,13 +205,21 @@ def build(mesh, segments, algo="AUTO", lin_at_points=None, weights=None):
     space = MultiplierSpace(carriers, carriers.copy(), topo, carriers_of, T, T_convex, algo=algo,
                             n_weak=int((~strong).sum()))
     if algo != "NON" and len(carriers):
+        assert lin_at_points is not None and weights is not None      # needed by the ties
         _tie_kernels(space, mesh, edges, r, lin_at_points, weights)
-        if space.tie_edges:
-            space = _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts)
+        merged: set[tuple[int, int]] = set()
+        while space.tie_edges:
+            tied = _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts, merged)
+            kernel = _kernel_carriers(tied, mesh, lin_at_points, weights)
+            more = {(a, b) for a, b, _ in space.tie_edges
+                    if kernel & set(cverts[np.isin(cverts, [a, b]).any(axis=1)].ravel().tolist())} - merged
+            if not more:
+                return tied
+            merged |= more           # gradient ties that spoil the space near them go back to merges
     return space
 
 
-def convex_weights(points, target):
+def convex_weights(points: FloatArray, target: FloatArray) -> FloatArray:
     """Non-negative weights ``w (r,)`` summing to 1 with ``w @ points`` closest to
     ``target (2,)``: the barycentric coordinates of ``target`` when it lies in the
     convex hull of ``points (r, 2)`` (then linear fields are reproduced exactly),
@@ -199,7 +234,37 @@ def convex_weights(points, target):
     return w / w.sum()
 
 
-def _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts):
+def _kernel_carriers(space: MultiplierSpace, mesh: LocalMesh, lin_at_points: FloatArray,
+                     weights: FloatArray) -> set[int]:
+    """Global ids of the carriers of every set of carriers sharing cut cells whose
+    trace Gram matrix, with the space's merges, is singular (scaled eigenvalue
+    below ``SINGULAR``), and of the carriers whose dof has a lumped weight
+    int phi_a ds <= 0.  A gradient tie keeps linear fields exact, and on a
+    straight stretch the interpolant of the signed distance is such a field with
+    a zero trace: the kernel the packet ties removed can come back.  And where the
+    neighbouring crossed edges are nearly parallel, the gradient read from them
+    has large weights (4.7 on a Gmsh quadrangle mesh), which can make a dof's
+    function mostly negative: its conditions at the dof (lam_a <= 0, mean gap >= 0)
+    would then say the opposite of what they mean."""
+    G = _gram(space, mesh, lin_at_points, weights)
+    root = np.searchsorted(space.ids, space.rep)
+    ncomp, comp = connected_components(G != 0, directed=False)
+    bad = []
+    for c in range(ncomp):
+        members = np.nonzero(comp == c)[0]
+        if len(members) > 1 and _merged_eigenvalue(G[members][:, members], members, root) < SINGULAR:
+            bad.append(space.ids[members])
+    # the lumped weight int phi_a ds of each dof is its Gram row sum (the phi_a sum to 1)
+    lumped = np.bincount(root, weights=np.asarray(G.sum(axis=1)).ravel(), minlength=len(space.ids))
+    negative = np.isin(root, np.nonzero(lumped <= 0.0)[0])
+    if negative.any():
+        bad.append(space.ids[negative])
+    return set(np.concatenate(bad).tolist()) if bad else set()
+
+
+def _gradient_ties(space: MultiplierSpace, topo: SegmentTopology, nv: int, ids: IntArray,
+                   xv: FloatArray, strong: BoolArray, ext: Combinations, edges: IntArray,
+                   cverts: IntArray, keep: Collection[tuple[int, int]] = frozenset()) -> MultiplierSpace:
     """Turn the ties of weak (not singular) packets into gradient ties; a new space.
 
     A merge tie (a, b) forces lam_a = lam_b: no variation of the multiplier along
@@ -208,15 +273,17 @@ def _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts):
     read from the other crossed edges of the cells holding (a, b): exact for linear
     fields, and it still removes the edge's own weak mode.  Ties of singular packets
     (eigenvalue below ``SINGULAR``: straight interfaces, whose kernel *is* a linear
-    field) and ties without a neighbouring crossed edge stay merges.
+    field), ties without a neighbouring crossed edge and the ties of ``keep``
+    (pairs of global ids) stay merges.
 
     In ``T_convex`` of the new space the gradient ties are merges lam_a = lam_b.
     """
     pos = {g: i for i, g in enumerate(ids)}
     cell_edges = edges.reshape(-1, 2, 2)
-    tied = {}
+    tied: Combinations = {}
+    nb: Collection[tuple[int, ...]]
     for a, b, lam in space.tie_edges:
-        if lam < SINGULAR or a in tied or b in tied:
+        if lam < SINGULAR or a in tied or b in tied or (a, b) in keep:
             continue
         in_cells = np.nonzero(np.isin(cverts, [a, b]).sum(axis=1) == 2)[0]
         nb = {tuple(sorted(e)) for c in in_cells for e in cell_edges[c] if e[0] >= 0}
@@ -258,7 +325,7 @@ def _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts):
     return new
 
 
-def _substitute(roots, wts, tied):
+def _substitute(roots: IntArray, wts: FloatArray, tied: Combinations) -> tuple[IntArray, FloatArray]:
     """``(roots, weights)`` of an extrapolated vertex with every tied root replaced by its own."""
     rr, ww = [], []
     for r, w in zip(roots, wts):
@@ -268,7 +335,8 @@ def _substitute(roots, wts, tied):
     return np.array(rr), np.array(ww)
 
 
-def _aggregation(el, ids, xv, strong, cverts, cx):
+def _aggregation(el: Element, ids: IntArray, xv: FloatArray, strong: BoolArray, cverts: IntArray,
+                 cx: FloatArray) -> Combinations:
     """For every weak vertex: the vertices of its root cell and extrapolation weights.
 
     The weights are the root cell's own linear companion functions (P1 / Q1)
@@ -290,7 +358,7 @@ def _aggregation(el, ids, xv, strong, cverts, cx):
     return {ids[i]: (cverts[j], w) for i, j, w in zip(weak, nearest, wts)}
 
 
-def convex_aggregation(ext, xv, ids):
+def convex_aggregation(ext: Combinations, xv: FloatArray, ids: IntArray) -> Combinations:
     """The weak vertices of ``ext`` (see :func:`_aggregation`) as convex combinations
     of the same roots (:func:`convex_weights`): admissible wherever the roots are,
     exact for linear fields only when the weak vertex lies in their hull."""
@@ -299,7 +367,7 @@ def convex_aggregation(ext, xv, ids):
             for (g, (roots, _)), i in zip(ext.items(), pos)}
 
 
-def _same_columns(carriers_of, other, T_other):
+def _same_columns(carriers_of: IntArray, other: IntArray, T_other: FloatArray) -> FloatArray:
     """``T_other`` (columns ``other``) with its columns in the order of ``carriers_of``
     (the same carriers per cell, possibly in another order; a carrier missing from
     ``carriers_of`` must carry zero weight)."""
@@ -314,10 +382,11 @@ def _same_columns(carriers_of, other, T_other):
     return out
 
 
-def _cell_maps(topo, nv, strong, ids, ext):
+def _cell_maps(topo: SegmentTopology, nv: int, strong: BoolArray, ids: IntArray,
+               ext: Combinations) -> tuple[IntArray, FloatArray]:
     """Per segment cell: carrier list ``(k, m)`` and ``T (k, nv, m)``."""
     k = len(topo.verts)
-    slots = [[] for _ in range(k)]
+    slots: list[list[tuple[int, int, float]]] = [[] for _ in range(k)]
     for c in range(k):
         for a in range(nv):
             g = topo.verts[c, a]
@@ -330,7 +399,7 @@ def _cell_maps(topo, nv, strong, ids, ext):
     carriers_of = np.full((k, m), -1, dtype=np.int64)
     T = np.zeros((k, nv, m))
     for c, s in enumerate(slots):
-        cols = {}
+        cols: dict[int, int] = {}
         for a, g, w in s:
             j = cols.setdefault(g, len(cols))
             carriers_of[c, j] = g
@@ -338,7 +407,8 @@ def _cell_maps(topo, nv, strong, ids, ext):
     return carriers_of, T
 
 
-def _gram(space, mesh, lin_at_points, weights):
+def _gram(space: MultiplierSpace, mesh: LocalMesh, lin_at_points: FloatArray,
+          weights: FloatArray) -> Sparse:
     """Trace Gram matrix of the carriers, gathered from every process (sparse)."""
     phit = space.functions(lin_at_points)                                 # (k, ng, m)
     co = space.carriers_of
@@ -354,7 +424,7 @@ def _gram(space, mesh, lin_at_points, weights):
                          shape=(n, n)).tocsr()
 
 
-def _smallest_scaled_eigenvalue(G):
+def _smallest_scaled_eigenvalue(G: Sparse) -> float:
     """Smallest eigenvalue of the Jacobi-scaled Gram matrix ``G`` (sparse, SPD or singular)."""
     n = G.shape[0]
     if n == 0:
@@ -370,7 +440,7 @@ def _smallest_scaled_eigenvalue(G):
     return eigsh(A, k=1, sigma=-1e-3, which="LM", return_eigenvectors=False)[0]
 
 
-def _packet_eigenvalues(G, order, bounds):
+def _packet_eigenvalues(G: Sparse, order: IntArray, bounds: IntArray) -> FloatArray:
     """Smallest Jacobi-scaled eigenvalue of every packet's diagonal block of ``G``.
 
     Packet ``c`` holds the vertices ``order[bounds[c]:bounds[c + 1]]``; packets of
@@ -395,7 +465,8 @@ def _packet_eigenvalues(G, order, bounds):
     return lams
 
 
-def _tie_kernels(space, mesh, edges, r, lin_at_points, weights):
+def _tie_kernels(space: MultiplierSpace, mesh: LocalMesh, edges: IntArray, r: FloatArray,
+                 lin_at_points: FloatArray, weights: FloatArray) -> None:
     ids = space.ids
     keep = (edges[:, 0] >= 0) & np.isin(edges[:, 0], ids) & np.isin(edges[:, 1], ids)
     e, rr = edges[keep], r[keep]
@@ -445,7 +516,7 @@ def _tie_kernels(space, mesh, edges, r, lin_at_points, weights):
     space.rep = ids[root]
 
 
-def _tie_twins(space, G, root):
+def _tie_twins(space: MultiplierSpace, G: Sparse, root: IntArray) -> None:
     """Merge carriers whose traces are one and the same function.
 
     A straight interface through opposite corners of quadrangles (a cell
@@ -470,7 +541,8 @@ def _tie_twins(space, G, root):
         space.tie_edges.append((int(ids[C.row[j]]), int(ids[C.col[j]]), 0.0))
 
 
-def _tie_global_kernels(space, G, e, ia, ib, centrality, root):
+def _tie_global_kernels(space: MultiplierSpace, G: Sparse, e: IntArray, ia: IntArray, ib: IntArray,
+                        centrality: FloatArray, root: IntArray) -> float:
     """Merge crossed edges until no set of carriers sharing cut cells has a kernel.
 
     On quadrangles a packet is often a single crossed edge, but the kernel of a
@@ -509,7 +581,7 @@ def _tie_global_kernels(space, G, e, ia, ib, centrality, root):
     return smallest
 
 
-def _merged_eigenvalue(Gm, members, root):
+def _merged_eigenvalue(Gm: Sparse, members: IntArray, root: IntArray) -> float:
     """Smallest scaled eigenvalue of ``Gm`` (the Gram block of ``members``) with the
     classes of ``root`` merged."""
     _, cls = np.unique(root[members], return_inverse=True)

@@ -14,7 +14,16 @@ cycling around a point at a stick/slip or contact limit), the update is
 halved.  The fixed point -- hence the answer -- is the same as the plain
 update's.
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Callable, Hashable, cast
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    FloatArray = NDArray[np.float64]
 
 #: number of previous updates combined
 DEPTH = 5
@@ -27,16 +36,19 @@ class ThresholdUpdate:
     process (each dof counted once).
     """
 
-    def __init__(self, dot, depth=DEPTH):
+    s_hist: list[FloatArray]                # the last thresholds ...
+    r_hist: list[FloatArray]                # ... and their residuals
+
+    def __init__(self, dot: Callable[[FloatArray, FloatArray], float], depth: int = DEPTH) -> None:
         self.dot, self.depth = dot, depth
         self.s_hist, self.r_hist = [], []
-        self.key = None
+        self.key: Hashable = None
         self.last = np.inf                  # |r| of the previous update
 
-    def restart(self):
+    def restart(self) -> None:
         self.s_hist, self.r_hist = [], []
 
-    def __call__(self, s, target, key):
+    def __call__(self, s: FloatArray, target: FloatArray, key: Hashable) -> FloatArray:
         """New thresholds from the current ones ``s`` and ``target`` (LAGS_C of the
         solve with ``s``); ``key``: anything that changes when a status does."""
         r = target - s
@@ -46,7 +58,8 @@ class ThresholdUpdate:
             self.restart()
             self.key = key
             if growing:                     # statuses changed and the residual grew: damp
-                return np.minimum(s + 0.5 * r, 0.0) * (target < 0)
+                # (NumPy's type information takes this product for a bool array)
+                return cast("FloatArray", np.minimum(s + 0.5 * r, 0.0) * (target < 0))
         self.s_hist.append(s)
         self.r_hist.append(r)
         self.s_hist, self.r_hist = self.s_hist[-self.depth - 1:], self.r_hist[-self.depth - 1:]

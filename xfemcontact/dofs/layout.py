@@ -11,8 +11,9 @@ field       components       carried by
 3 LAGS_F1   friction         the same vertices
 ==========  ===============  =======================================================
 
-Within a point, dofs are ordered field by field (PETSc's point-major layout), so
-node ``i``'s local dofs are ``off[i] + (DX, DY, [H1X, H1Y], [LAGS_C, LAGS_F1])``.
+Within a point, dofs are ordered field by field, so node ``i``'s local dofs are
+``off[i] + (DX, DY, [H1X, H1Y], [LAGS_C, LAGS_F1])``; the PetscSection itself has one
+field (the kinds are told apart by these index arrays only).
 Imposed components (Dirichlet conditions, Heaviside dofs forced to zero) are
 section constraints: they are in the local vectors and out of the global system,
 so every KSP/PC sees the reduced, symmetric operator.
@@ -52,12 +53,15 @@ class DofLayout:
         self.multiplier = np.asarray(multiplier, bool)
         self.fixed = np.asarray(fixed, bool) & np.c_[np.ones((n, 2), bool), self.enriched, self.enriched]
         self._counts = None        # free dofs by kind, summed over processes on first use
+        self._scatter = None       # see scatter
         self.section = self._build_section()
         dm = mesh.dm
         dm.setSection(self.section)
         self.global_section = dm.getGlobalSection()
-        lg = dm.getLGMap().getIndices() if self.section.getStorageSize() else np.zeros(0, np.int64)
-        self._index_arrays(np.asarray(lg, dtype=np.int64))
+        lg = dm.getLGMap().getIndices() if self.section.getStorageSize() else np.zeros(0, PETSc.IntType)
+        #: global index of every local dof (-1 constrained)
+        self.lg = np.asarray(lg, dtype=PETSc.IntType)
+        self._index_arrays(self.lg)
 
     # -- section ------------------------------------------------------------
     def _dofs_per_field(self):
@@ -65,39 +69,26 @@ class DofLayout:
         return np.c_[np.full(n, 2), 2 * self.enriched, self.multiplier, self.multiplier].astype(np.int64)
 
     def _build_section(self):
+        """A PetscSection with one field holding every dof of a node (a field per kind
+        cost one more section over the whole chart each).  Within a point the dofs
+        keep the order (DX, DY, [H1X, H1Y], [LAGS_C, LAGS_F1]); the constraints are the
+        fixed ones.  (The chart is the DMPlex's: PETSc 3.18 checks constraint
+        indices against the wrong points when a chart does not start at 0.)"""
         mesh = self.mesh
         sec = PETSc.Section().create(comm=mesh.comm)
-        sec.setNumFields(len(FIELDS))
-        for f, name in enumerate(FIELDS):
-            sec.setFieldName(f, name)
-            sec.setFieldComponents(f, len(COMPONENTS[name]))
+        pts = mesh.node_points
         sec.setChart(*mesh.dm.getChart())
         per_field = self._dofs_per_field()
         ncons = self.fixed.sum(axis=1)
-        points = mesh.node_points.tolist()
+        points = pts.tolist()
         # every node carries DX, DY: map() keeps the per-point calls out of the interpreter loop
         list(map(sec.setDof, points, per_field.sum(axis=1).tolist()))
-        list(map(sec.setFieldDof, points, [0] * len(points), [2] * len(points)))
-        special = np.nonzero(per_field[:, 1:].any(axis=1) | (ncons > 0))[0]   # the few other nodes
-        for i in special.tolist():
-            p, dofs, fix = points[i], per_field[i].tolist(), self.fixed[i].tolist()
-            for f in (1, 2, 3):
-                if dofs[f]:
-                    sec.setFieldDof(p, f, dofs[f])
-            if ncons[i]:
-                sec.setConstraintDof(p, int(ncons[i]))
-                if fix[0] or fix[1]:
-                    sec.setFieldConstraintDof(p, 0, fix[0] + fix[1])
-                if fix[2] or fix[3]:
-                    sec.setFieldConstraintDof(p, 1, fix[2] + fix[3])
+        special = np.nonzero(ncons > 0)[0]
+        list(map(sec.setConstraintDof, pts[special].tolist(), ncons[special].tolist()))
         sec.setUp()
-        for i in np.nonzero(ncons)[0]:
-            p, fix = int(mesh.node_points[i]), self.fixed[i]
-            sec.setConstraintIndices(p, np.nonzero(fix)[0].astype(PETSc.IntType))
-            if fix[0] or fix[1]:
-                sec.setFieldConstraintIndices(p, 0, np.nonzero(fix[:2])[0].astype(PETSc.IntType))
-            if fix[2] or fix[3]:
-                sec.setFieldConstraintIndices(p, 1, np.nonzero(fix[2:])[0].astype(PETSc.IntType))
+        it = PETSc.IntType
+        for i in special.tolist():
+            sec.setConstraintIndices(points[i], np.nonzero(self.fixed[i])[0].astype(it))
         return sec
 
     # -- index arrays -------------------------------------------------------
@@ -116,33 +107,103 @@ class DofLayout:
         #: index of an extra slot, always zero, that absent dofs of a batch point to;
         #: local work arrays have ``local_size + 1`` entries
         self.dummy = self.local_size
-        e, m = self.enriched, self.multiplier
-        self.u_local = off[:, None] + np.arange(2)
-        self.h_local = np.where(e[:, None], off[:, None] + 2 + np.arange(2), -1)
-        lag0 = off + 2 + 2 * e
-        self.lag_local = np.where(m[:, None], lag0[:, None] + np.arange(2), -1)
-
-        def glob(local):
-            g = np.where(local >= 0, lg[np.maximum(local, 0)] if len(lg) else -1, -1)
-            return np.where(g >= 0, g, -1)
-
-        self.u_global, self.h_global, self.lag_global = glob(self.u_local), glob(self.h_local), glob(self.lag_local)
+        # index arrays in PETSc's integer type (half the memory of int64 with 32-bit PETSc)
+        it = PETSc.IntType
+        e = self.enriched
+        off = off.astype(it)
+        two = np.arange(2, dtype=it)
+        self.u_local = off[:, None] + two
+        self.h_local = np.where(e[:, None], off[:, None] + 2 + two, it(-1))
+        self._derived = {}         # the arrays below, computed on first use (see release_setup)
         constrained = np.zeros(self.local_size, dtype=bool)
         constrained[self.u_local[self.fixed[:, :2]]] = True
         hfix = self.h_local[self.fixed[:, 2:]]
         constrained[hfix[hfix >= 0]] = True
         #: local indices of the free (unconstrained) dofs
-        self.free_local = np.nonzero(~constrained)[0]
+        self.free_local = np.nonzero(~constrained)[0].astype(it)
+        #: True when the global dofs are the free local dofs in order (one process)
+        self.identity = bool(mesh.comm.size == 1 and np.array_equal(
+            lg[self.free_local], np.arange(len(self.free_local), dtype=it)))
         self.owned_size = self.global_section.getConstrainedStorageSize()
         self.global_size = self.mesh.comm.tompi4py().allreduce(self.owned_size)
         self.ownership_start = self.mesh.comm.tompi4py().exscan(self.owned_size) or 0
 
+    # -- derived index arrays (recomputed after release_setup if asked for) ----
+    @property
+    def lag_local(self):
+        """``(n, 2)`` local LAGS_C, LAGS_F1 dof of every node (-1 where absent)."""
+        if "lag_local" not in self._derived:
+            it = PETSc.IntType
+            lag0 = self.u_local[:, 0] + 2 + 2 * self.enriched.astype(it)
+            self._derived["lag_local"] = np.where(self.multiplier[:, None], lag0[:, None] + np.arange(2, dtype=it),
+                                                  it(-1))
+        return self._derived["lag_local"]
+
+    def _global(self, name, local):
+        if name not in self._derived:
+            it, lg = PETSc.IntType, self.lg
+            if not len(lg):
+                g = np.full(local.shape, -1, it)
+            else:
+                g = np.where(local >= 0, lg[np.maximum(local, 0)], it(-1))
+                g = np.where(g >= 0, g, it(-1))
+            self._derived[name] = g
+        return self._derived[name]
+
+    @property
+    def u_global(self):
+        """``(n, 2)`` global DX, DY dof of every node (-1: constrained)."""
+        return self._global("u_global", self.u_local)
+
+    @property
+    def h_global(self):
+        """``(n, 2)`` global H1X, H1Y dof (-1: absent or constrained)."""
+        return self._global("h_global", self.h_local)
+
+    @property
+    def lag_global(self):
+        """``(n, 2)`` global LAGS_C, LAGS_F1 dof (-1: absent)."""
+        return self._global("lag_global", self.lag_local)
+
     # -- vectors ------------------------------------------------------------
     def create_global_vec(self):
-        return self.mesh.dm.createGlobalVec()
+        """A global vector (this process's ``owned_size`` free dofs, in global order)."""
+        v = PETSc.Vec().create(comm=self.mesh.comm)
+        v.setSizes((self.owned_size, self.global_size))
+        v.setType(PETSc.Vec.Type.STANDARD)
+        return v
 
     def create_local_vec(self):
-        return self.mesh.dm.createLocalVec()
+        """A sequential vector of this process's dofs (``local_size``), constrained ones included."""
+        return PETSc.Vec().createSeq(self.local_size, comm=PETSc.COMM_SELF)
+
+    @property
+    def scatter(self):
+        """``(Scatter, local Vec)`` from the free local dofs to their global entries (several
+        processes only; built on first use): forward with ADD_VALUES sums the shared dofs
+        of every process into their owner, reverse with INSERT_VALUES gives every process
+        the values of its dofs."""
+        if self._scatter is None:
+            free = self.free_local
+            it = PETSc.IntType
+            lv = PETSc.Vec().createSeq(self.local_size, comm=PETSc.COMM_SELF)
+            g = self.create_global_vec()
+            src = PETSc.IS().createGeneral(free.astype(it), comm=PETSc.COMM_SELF)
+            dst = PETSc.IS().createGeneral(self.lg[free].astype(it), comm=PETSc.COMM_SELF)
+            self._scatter = (PETSc.Scatter().create(lv, src, g, dst), lv)
+            src.destroy()
+            dst.destroy()
+            g.destroy()
+        return self._scatter
+
+    def release_setup(self):
+        """Drop what only the set-up needed, before the factorisation (idempotent): the
+        PetscSections, the DMPlex (:meth:`LocalMesh.release_topology`) and the global
+        and multiplier index arrays (recomputed if asked for again).  Vectors and
+        transfers do not depend on them.  TRIA6 N = 320: 62 MB."""
+        self.section = self.global_section = None
+        self._derived.clear()
+        self.mesh.release_topology()
 
     def local_array(self):
         """A zero local work array (``local_size + 1`` entries, the last one the dummy)."""

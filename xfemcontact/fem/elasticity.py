@@ -15,12 +15,21 @@ Affine cells (straight-sided triangles, parallelograms) have constant Jacobians;
 their stiffness is ``T_e @ R`` with ``R`` the reference gradient products and
 ``T_e`` 16 numbers per cell (:func:`affine_stiffness`), one BLAS product per batch.
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    FloatArray = NDArray[np.float64]
 
 MODELS = ("C_PLAN", "D_PLAN")
 
 
-def hooke(E, nu, model="C_PLAN"):
+def hooke(E: float, nu: float, model: str = "C_PLAN") -> FloatArray:
     """Voigt elasticity matrix ``(3, 3)``: plane stress C_PLAN or plane strain D_PLAN."""
     if model == "C_PLAN":
         c = E / (1.0 - nu * nu)
@@ -34,12 +43,12 @@ def hooke(E, nu, model="C_PLAN"):
 _VOIGT = np.array([[0, 2], [2, 1]])   # tensor (i, j) -> Voigt index
 
 
-def tensor(D):
+def tensor(D: FloatArray) -> FloatArray:
     """Fourth-order tensor ``C[i, j, k, l] (2, 2, 2, 2)`` from the Voigt matrix."""
     return D[_VOIGT[:, :, None, None], _VOIGT[None, None, :, :]]
 
 
-def stiffness(G, w, C):
+def stiffness(G: FloatArray, w: FloatArray, C: FloatArray) -> FloatArray:
     """Element stiffness ``(ne, 2 nf, 2 nf)``: K[i f, j g] = sum_q w G_fk C_ikjl G_gl."""
     ne, nq, nf, _ = G.shape
     Gc = [np.ascontiguousarray(G[..., k]) for k in range(2)]          # (ne, nq, nf)
@@ -55,13 +64,13 @@ def stiffness(G, w, C):
     return K.reshape(ne, 2 * nf, 2 * nf)
 
 
-def reference_products(dshape_ref, wq):
+def reference_products(dshape_ref: FloatArray, wq: FloatArray) -> FloatArray:
     """``R (4, nf, nf)``: R[(a b)][f, g] = sum_q wq dN_f/dxi_a dN_g/dxi_b on the reference cell."""
     R = np.einsum("q,qfa,qgb->abfg", wq, dshape_ref, dshape_ref)
     return R.reshape(4, *R.shape[2:])
 
 
-def affine_basis(R, C):
+def affine_basis(R: FloatArray, C: FloatArray) -> FloatArray:
     """``(16, (2 nf)^2)`` matrix taking the products M_ak M_bl of an affine cell's
     inverse Jacobian M to its stiffness per unit det J (see :func:`affine_stiffness`)."""
     nf = R.shape[1]
@@ -73,7 +82,7 @@ def affine_basis(R, C):
     return B.reshape(16, (2 * nf) ** 2)
 
 
-def affine_stiffness(J, basis):
+def affine_stiffness(J: FloatArray, basis: FloatArray) -> FloatArray:
     """Stiffness ``(ne, 2 nf, 2 nf)`` of affine cells with Jacobians ``J (ne, 2, 2)``.
 
     With M = J^-1: K[i f, j g] = det J sum_{a k b l} C_ikjl M_ak M_bl R_ab[f, g],
@@ -88,14 +97,14 @@ def affine_stiffness(J, basis):
     return (MM.reshape(len(J), 16) @ basis).reshape(len(J), n, n)
 
 
-def inverse_jacobians(J):
+def inverse_jacobians(J: FloatArray) -> tuple[FloatArray, FloatArray]:
     """``(det, M)`` of Jacobians ``J (ne, 2, 2)``: determinants ``(ne,)`` and inverses ``(ne, 2, 2)``."""
     det = J[:, 0, 0] * J[:, 1, 1] - J[:, 0, 1] * J[:, 1, 0]
     M = np.stack([J[:, 1, 1], -J[:, 0, 1], -J[:, 1, 0], J[:, 0, 0]], axis=1).reshape(-1, 2, 2) / det[:, None, None]
     return det, M
 
 
-def affine_strain(dshape_ref, M, ue):
+def affine_strain(dshape_ref: FloatArray, M: FloatArray, ue: FloatArray) -> FloatArray:
     """Strains ``(ne, nq, 3)`` (Voigt) of affine cells with inverse Jacobians ``M (ne, 2, 2)``.
 
     ``dshape_ref (nq, nn, 2)``: reference gradients at the points, the same for
@@ -109,13 +118,13 @@ def affine_strain(dshape_ref, M, ue):
     return np.stack([g[:, 0, :, 0], g[:, 1, :, 1], g[:, 0, :, 1] + g[:, 1, :, 0]], axis=-1)
 
 
-def strain(G, ue):
+def strain(G: FloatArray, ue: FloatArray) -> FloatArray:
     """Strains ``(ne, nq, 3)`` (Voigt) from element dofs ``ue (ne, 2 nf)``."""
     g = np.matmul(ue.reshape(len(ue), 1, 2, -1), G)                  # (ne, nq, 2, 2) grad u
     return np.stack([g[..., 0, 0], g[..., 1, 1], g[..., 0, 1] + g[..., 1, 0]], axis=-1)
 
 
-def internal_forces(G, w, sigma):
+def internal_forces(G: FloatArray, w: FloatArray, sigma: FloatArray) -> FloatArray:
     """Element internal forces ``(ne, 2 nf)`` = sum_q w B^T sigma, sigma ``(ne, nq, 3)``."""
     s = sigma[..., _VOIGT]                                   # (ne, nq, 2, 2) tensor
     f = np.einsum("eqfk,eqik,eq->eif", G, s, w, optimize=True)

@@ -7,48 +7,64 @@ triangle (0,0)-(1,0)-(0,1), SEG3 on [-1, 1] with nodes at -1, +1, 0.
 All evaluations are vectorised: ``xi`` has shape ``(..., 2)`` and the results
 have shape ``(..., nn)`` for values and ``(..., nn, 2)`` for reference gradients.
 """
+from __future__ import annotations
+
 from functools import lru_cache
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from xfemcontact.fem import quadrature
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike, NDArray
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+    #: shape functions (or their gradients) at reference points
+    _Functions = Callable[[FloatArray], FloatArray]
+
 
 class Element:
-    name = None
-    nv = nn = None
-    ref_nodes = None        # (nn, 2) reference coordinates of the nodes
-    edges = None            # (ne, 3) local nodes (a, b, mid) of each edge
-    reverse = None          # node permutation turning a clockwise cell counter-clockwise
-    ref_area_inv = None     # 1 / measure of the reference domain
+    """A reference element (abstract: :class:`Tria6`, :class:`Quad8`)."""
 
-    def shape(self, xi):
+    name: str
+    nv: int
+    nn: int
+    ref_nodes: FloatArray   # (nn, 2) reference coordinates of the nodes
+    edges: IntArray         # (ne, 3) local nodes (a, b, mid) of each edge
+    reverse: IntArray       # node permutation turning a clockwise cell counter-clockwise
+    ref_area_inv: float     # 1 / measure of the reference domain
+
+    def shape(self, xi: FloatArray) -> FloatArray:
         raise NotImplementedError
 
-    def dshape(self, xi):
+    def dshape(self, xi: FloatArray) -> FloatArray:
         raise NotImplementedError
 
-    def shape_linear(self, xi):
+    def shape_linear(self, xi: FloatArray) -> FloatArray:
         """Values ``(..., nv)`` of the linear companion (TRIA3 / QUAD4) functions."""
         raise NotImplementedError
 
-    def dshape_linear(self, xi):
+    def dshape_linear(self, xi: FloatArray) -> FloatArray:
         raise NotImplementedError
 
-    def quadrature(self, degree):
+    def quadrature(self, degree: int) -> tuple[FloatArray, FloatArray]:
         raise NotImplementedError
 
     # -- geometry of physical cells ---------------------------------------
-    def jacobians(self, x, xi):
+    def jacobians(self, x: FloatArray, xi: FloatArray) -> FloatArray:
         """Jacobians ``dx/dxi`` of cells ``x (ne, nn, 2)`` at ``xi (nq, 2)``: ``(ne, nq, 2, 2)``."""
         # one BLAS product over the node index: (ne, 2, nq, 2) -> (ne, nq, 2, 2)
         return np.tensordot(x, self.dshape(xi), axes=([1], [1])).transpose(0, 2, 1, 3)
 
-    def jacobian_dets(self, x, xi):
+    def jacobian_dets(self, x: FloatArray, xi: FloatArray) -> FloatArray:
         J = self.jacobians(x, xi)
         return J[..., 0, 0] * J[..., 1, 1] - J[..., 0, 1] * J[..., 1, 0]
 
-    def linear_reference(self, xv, x, iters=30, tol=1e-13):
+    def linear_reference(self, xv: FloatArray, x: FloatArray, iters: int = 30,
+                         tol: float = 1e-13) -> FloatArray:
         """Reference coordinates ``(k, 2)`` of points ``x (k, 2)`` (m) under the linear
         companion maps (TRIA3 / QUAD4) of cells with vertices ``xv (k, nv, 2)``.
 
@@ -59,12 +75,14 @@ class Element:
                            None, iters, tol)
         return xi[:, 0]
 
-    def map_points(self, x, xi):
+    def map_points(self, x: FloatArray, xi: FloatArray) -> FloatArray:
         """Physical points ``(k, ..., 2)`` (m) of reference points ``xi (k, ..., 2)``
         under the isoparametric maps of cells ``x (k, nn, 2)``."""
         return np.einsum("k...a,kai->k...i", self.shape(xi), x)
 
-    def inverse_map(self, x, pts, xi0, live=None, iters=30, tol=1e-13):
+    def inverse_map(self, x: FloatArray, pts: FloatArray, xi0: ArrayLike,
+                    live: ArrayLike | None = None, iters: int = 30,
+                    tol: float = 1e-13) -> tuple[FloatArray, BoolArray]:
         """Reference coordinates ``(k, p, 2)`` of physical points ``pts (k, p, 2)`` in
         cells ``x (k, nn, 2)``: Newton on ``sum_a N_a(xi) x_a = pts`` from ``xi0``.
 
@@ -79,17 +97,19 @@ class Element:
         return _pull_back(self.shape, self.dshape, x, pts, xi0, live, iters, tol)
 
     @property
-    def check_points(self):
+    def check_points(self) -> FloatArray:
         """Points where a cell's Jacobian is checked: nodes and a Gauss rule."""
         q, _ = self.quadrature(4)
         return np.r_[self.ref_nodes, q]
 
-    def contains(self, xi, tol=1e-12):
+    def contains(self, xi: FloatArray, tol: float = 1e-12) -> BoolArray:
         """Whether reference points ``xi (..., 2)`` lie in the reference domain."""
         raise NotImplementedError
 
 
-def _pull_back(shape, dshape, x, pts, xi0, live, iters, tol):
+def _pull_back(shape: _Functions, dshape: _Functions, x: FloatArray, pts: FloatArray,
+               xi0: ArrayLike, live: ArrayLike | None, iters: int,
+               tol: float) -> tuple[FloatArray, BoolArray]:
     """Newton on ``sum_a shape_a(xi) x_a = pts`` for every point (see
     :meth:`Element.inverse_map`); ``shape``/``dshape`` give the map's functions."""
     k, p = pts.shape[:2]
@@ -115,6 +135,8 @@ def _pull_back(shape, dshape, x, pts, xi0, live, iters, tol):
 
 
 class Tria6(Element):
+    """Quadratic triangle on (0,0)-(1,0)-(0,1)."""
+
     name = "TRIA6"
     nv, nn = 3, 6
     ref_nodes = np.array([[0, 0], [1, 0], [0, 1], [0.5, 0], [0.5, 0.5], [0, 0.5]], float)
@@ -123,16 +145,16 @@ class Tria6(Element):
     ref_area_inv = 2.0
 
     @staticmethod
-    def _bary(xi):
+    def _bary(xi: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
         x, y = xi[..., 0], xi[..., 1]
         return 1.0 - x - y, x, y
 
-    def shape(self, xi):
+    def shape(self, xi: FloatArray) -> FloatArray:
         l0, l1, l2 = self._bary(xi)
         return np.stack([l0 * (2 * l0 - 1), l1 * (2 * l1 - 1), l2 * (2 * l2 - 1),
                          4 * l0 * l1, 4 * l1 * l2, 4 * l2 * l0], axis=-1)
 
-    def dshape(self, xi):
+    def dshape(self, xi: FloatArray) -> FloatArray:
         l0, l1, l2 = self._bary(xi)
         # d(l0, l1, l2)/d(x, y) = (-1,-1), (1,0), (0,1)
         dx = np.stack([-(4 * l0 - 1), 4 * l1 - 1, 0 * l2,
@@ -141,21 +163,23 @@ class Tria6(Element):
                        -4 * l1, 4 * l1, 4 * (l0 - l2)], axis=-1)
         return np.stack([dx, dy], axis=-1)
 
-    def shape_linear(self, xi):
+    def shape_linear(self, xi: FloatArray) -> FloatArray:
         return np.stack(self._bary(xi), axis=-1)
 
-    def dshape_linear(self, xi):
+    def dshape_linear(self, xi: FloatArray) -> FloatArray:
         g = np.array([[-1.0, -1.0], [1.0, 0.0], [0.0, 1.0]])
         return np.broadcast_to(g, xi.shape[:-1] + (3, 2))
 
-    def quadrature(self, degree):
+    def quadrature(self, degree: int) -> tuple[FloatArray, FloatArray]:
         return quadrature.gauss_triangle(degree)
 
-    def contains(self, xi, tol=1e-12):
+    def contains(self, xi: FloatArray, tol: float = 1e-12) -> BoolArray:
         return (xi[..., 0] >= -tol) & (xi[..., 1] >= -tol) & (xi.sum(-1) <= 1 + tol)
 
 
 class Quad8(Element):
+    """Serendipity quadrangle on [-1, 1]^2."""
+
     name = "QUAD8"
     nv, nn = 4, 8
     ref_nodes = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1],
@@ -164,7 +188,7 @@ class Quad8(Element):
     reverse = np.array([0, 3, 2, 1, 7, 6, 5, 4])
     ref_area_inv = 0.25
 
-    def shape(self, xi):
+    def shape(self, xi: FloatArray) -> FloatArray:
         x, y = xi[..., 0, None], xi[..., 1, None]
         xc, yc = self.ref_nodes[:4, 0], self.ref_nodes[:4, 1]
         corner = 0.25 * (1 + x * xc) * (1 + y * yc) * (x * xc + y * yc - 1)
@@ -173,7 +197,7 @@ class Quad8(Element):
         return np.concatenate([corner, mid_x[..., :1], mid_y[..., :1],
                                mid_x[..., 1:], mid_y[..., 1:]], axis=-1)
 
-    def dshape(self, xi):
+    def dshape(self, xi: FloatArray) -> FloatArray:
         x, y = xi[..., 0, None], xi[..., 1, None]
         xc, yc = self.ref_nodes[:4, 0], self.ref_nodes[:4, 1]
         cdx = 0.25 * xc * (1 + y * yc) * (2 * x * xc + y * yc)
@@ -188,20 +212,20 @@ class Quad8(Element):
         dy = np.concatenate([cdy, mxdy[..., :1], mydy[..., :1], mxdy[..., 1:], mydy[..., 1:]], -1)
         return np.stack([dx, dy], axis=-1)
 
-    def shape_linear(self, xi):
+    def shape_linear(self, xi: FloatArray) -> FloatArray:
         x, y = xi[..., 0, None], xi[..., 1, None]
         xc, yc = self.ref_nodes[:4, 0], self.ref_nodes[:4, 1]
         return 0.25 * (1 + x * xc) * (1 + y * yc)
 
-    def dshape_linear(self, xi):
+    def dshape_linear(self, xi: FloatArray) -> FloatArray:
         x, y = xi[..., 0, None], xi[..., 1, None]
         xc, yc = self.ref_nodes[:4, 0], self.ref_nodes[:4, 1]
         return np.stack([0.25 * xc * (1 + y * yc), 0.25 * yc * (1 + x * xc)], axis=-1)
 
-    def quadrature(self, degree):
+    def quadrature(self, degree: int) -> tuple[FloatArray, FloatArray]:
         return quadrature.gauss_square(max(1, (degree + 2) // 2))
 
-    def contains(self, xi, tol=1e-12):
+    def contains(self, xi: FloatArray, tol: float = 1e-12) -> BoolArray:
         return np.all(np.abs(xi) <= 1 + tol, axis=-1)
 
 
@@ -212,18 +236,20 @@ class Seg3:
     nn = 3
 
     @staticmethod
-    def shape(s):
+    def shape(s: ArrayLike) -> FloatArray:
+        """Values ``(..., 3)`` at abscissae ``s (...)``."""
         s = np.asarray(s)[..., None]
         return np.concatenate([0.5 * s * (s - 1), 0.5 * s * (s + 1), 1 - s * s], axis=-1)
 
     @staticmethod
-    def dshape(s):
+    def dshape(s: ArrayLike) -> FloatArray:
+        """Derivatives ``(..., 3)`` at abscissae ``s (...)``."""
         s = np.asarray(s)[..., None]
         return np.concatenate([s - 0.5, s + 0.5, -2 * s], axis=-1)
 
 
 @lru_cache(maxsize=None)
-def element(name):
+def element(name: str) -> Element:
     """The reference element called ``name`` ("QUAD8" or "TRIA6")."""
     return {"QUAD8": Quad8, "TRIA6": Tria6}[name]()
 
@@ -233,7 +259,7 @@ def element(name):
 AFFINE_TOL = 1e-10
 
 
-def affine_cells(el, x):
+def affine_cells(el: Element, x: FloatArray) -> BoolArray:
     """Which cells ``x (ne, nn, 2)`` have an affine isoparametric map: ``(ne,)`` bool.
 
     Straight-sided triangles and parallelograms with mid-edge nodes at the midpoints:
@@ -248,7 +274,7 @@ def affine_cells(el, x):
     return err <= AFFINE_TOL * size
 
 
-def physical_gradients(dshape_ref, J):
+def physical_gradients(dshape_ref: FloatArray, J: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Gradients ``dN/dx (..., nn, 2)`` from reference ones and Jacobians ``(..., 2, 2)``.
 
     Returns ``(dNdx, detJ)``.

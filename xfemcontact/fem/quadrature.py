@@ -4,44 +4,56 @@ Each function returns ``(points, weights)``: points ``(nq, dim)`` in reference
 coordinates, weights ``(nq,)`` summing to the reference measure (2 for the
 segment [-1, 1], 1/2 for the triangle (0,0)-(1,0)-(0,1), 4 for [-1, 1]^2).
 """
+from __future__ import annotations
+
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    FloatArray = NDArray[np.float64]
+    #: ``(points (nq, dim), weights (nq,))`` of a rule
+    Rule = tuple[FloatArray, FloatArray]
+    #: points and weights of one orbit of a symmetric rule, as lists
+    _Orbit = tuple[list[list[float]], list[float]]
+
 
 @lru_cache(maxsize=None)
-def gauss_segment(n):
+def gauss_segment(n: int) -> Rule:
     """n-point Gauss-Legendre rule on [-1, 1] (exact to degree 2n-1)."""
     x, w = np.polynomial.legendre.leggauss(n)
     return x[:, None], w
 
 
 @lru_cache(maxsize=None)
-def gauss_square(n):
+def gauss_square(n: int) -> Rule:
     """n x n tensor Gauss rule on [-1, 1]^2."""
     x, w = np.polynomial.legendre.leggauss(n)
     X, Y = np.meshgrid(x, x, indexing="ij")
     return np.c_[X.ravel(), Y.ravel()], np.outer(w, w).ravel()
 
 
-def _orbit3(a, w):
+def _orbit3(a: float, w: float) -> _Orbit:
     b = 1.0 - 2.0 * a
     return [[a, a], [b, a], [a, b]], [w] * 3
 
 
-def _orbit6(a, b, w):
+def _orbit6(a: float, b: float, w: float) -> _Orbit:
     c = 1.0 - a - b
     return [[a, b], [b, a], [a, c], [c, a], [b, c], [c, b]], [w] * 6
 
 
-def _rule(*orbits):
-    pts = sum((o[0] for o in orbits), [])
-    wts = sum((o[1] for o in orbits), [])
+def _rule(*orbits: _Orbit) -> Rule:
+    pts: list[list[float]] = sum((o[0] for o in orbits), [])
+    wts: list[float] = sum((o[1] for o in orbits), [])
     return np.array(pts), 0.5 * np.array(wts)
 
 
 @lru_cache(maxsize=None)
-def gauss_triangle(degree):
+def gauss_triangle(degree: int) -> Rule:
     """Symmetric rule exact to ``degree`` on the reference triangle.
 
     Degrees 1, 2, 4 and 6 use the classical 1-, 3-, 6- and 12-point rules
@@ -62,7 +74,7 @@ def gauss_triangle(degree):
     return _stroud_triangle(degree)
 
 
-def _stroud_triangle(degree):
+def _stroud_triangle(degree: int) -> Rule:
     n = degree // 2 + 1
     # Gauss-Jacobi(alpha=1) in the collapsed direction absorbs the Duffy Jacobian
     from scipy.special import roots_jacobi

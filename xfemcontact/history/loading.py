@@ -21,7 +21,6 @@ import dataclasses
 import numpy as np
 
 from xfemcontact.assembly import bulk, system
-from xfemcontact.dofs import constraints
 from xfemcontact.fem import elasticity
 from xfemcontact.xfem import geometry as xgeo
 
@@ -50,19 +49,31 @@ def _uses_time(spec):
 
 
 class Loading:
-    """The loads of ``model.case`` at any instant (see the module documentation)."""
+    """The loads of ``model.case`` at any instant (see the module documentation).
+
+    Everything that needs the mesh groups (the nodes of the imposed displacements,
+    the edges of the tractions) is gathered here, before the first solve: the
+    model releases its DMPlex, groups included, when it starts solving."""
 
     def __init__(self, model):
         self.model = model
         self.case = model.case
         mesh, geo, layout = model.mesh, model.geo, model.layout
+        self._mesh, self._geo, self._layout = mesh, geo, layout
         self._lift_blocks = self._lift_matrices(model)
         self._constant = {}                 # load index -> its (time-independent) local forces
         self.reference = None               # last non-zero |f0|
         self.t = None
-        x = mesh.x
-        self._values_fn = lambda nodes, f: f(x=x[nodes, 0], y=x[nodes, 1])
-        self._mesh, self._geo, self._layout = mesh, geo, layout
+
+        def nodes_of(groups):
+            return np.unique(np.concatenate([mesh.group_nodes(g) for g in groups])).astype(np.int64)
+
+        #: per [[dirichlet]]: its nodes (the values of a later one override an earlier one's)
+        self._dirichlet = [(nodes_of(d.groups), d) for d in self.case.dirichlet]
+        #: per [[traction]]: the edges (nodes (k, 3)) this process integrates, per group
+        self._edges = [[mesh.group_edges(g)[0] for g in tr.groups] for tr in self.case.traction]
+        #: per load of the load path: its label and the owned nodes of its groups
+        self._path_nodes = [nodes_of(tr.groups) for tr in self.case.traction]
 
     @staticmethod
     def _lift_matrices(model):
@@ -87,6 +98,16 @@ class Loading:
                     blocks.append((bulk.enriched_batch(mesh, layout, pts.cells), K))
         return blocks
 
+    def _tractions(self, index, spec, f):
+        """Add the forces of traction ``spec`` (the ``index``-th) on its edges to ``f``
+        (what :func:`xfemcontact.assembly.system.add_tractions` does, on the edges kept)."""
+        mesh, geo, layout = self._mesh, self._geo, self._layout
+        for nodes in self._edges[index]:
+            if len(nodes) == 0:
+                continue
+            fe = system._edge_forces_by_side(mesh, geo, nodes, mesh.x[nodes], spec)      # (k, 2, 6)
+            np.add.at(f, system._edge_dofs(layout, nodes), fe.reshape(len(nodes), fe.shape[1] * fe.shape[2]))
+
     def _external(self, case_t):
         """Local array of the external forces at the instant of ``case_t``."""
         mesh, geo, layout = self._mesh, self._geo, self._layout
@@ -101,23 +122,30 @@ class Loading:
             if key == "body":
                 system.add_body_forces(mesh, geo, layout, spec, part)
             else:
-                system.add_tractions(mesh, geo, layout, (spec,), part)
+                self._tractions(key, spec, part)
             if not _uses_time(spec):
                 self._constant[key] = part
             f += part
         return f
 
+    def _imposed(self, t):
+        """``(n, 2)`` DX, DY imposed at instant ``t`` (as :func:`constraints.fixed_components`)."""
+        x = self._mesh.x
+        values = np.zeros((len(x), 2))
+        for nodes, d in self._dirichlet:
+            for c, comp in enumerate(("DX", "DY")):
+                if comp in d.components:
+                    values[nodes, c] = d.components[comp].at(t)(x=x[nodes, 0], y=x[nodes, 1])
+        return values
+
     def apply(self, t):
         """Put the loads of instant ``t`` into the model: ``x_bc``, ``f0``, ``load_norm``."""
         model, layout = self.model, self._layout
-        case_t = case_at(self.case, t)
-        fixed, values = constraints.fixed_components(self._mesh, case_t, self._geo, model.law,
-                                                     self._values_fn)
-        x_bc = system.bc_array(layout, fixed, values)
+        x_bc = system.bc_array(layout, layout.fixed, self._imposed(t))
         lift = layout.local_array()
         for batch, K in self._lift_blocks:
             bulk.add_lift(lift, batch, K, x_bc)
-        f0 = system.local_to_global(layout, lift - self._external(case_t))
+        f0 = system.local_to_global(layout, lift - self._external(case_at(self.case, t)))
         norm = f0.norm()
         if norm > 0:
             self.reference = norm
@@ -127,14 +155,14 @@ class Loading:
     def path(self, t):
         """The load path at ``t``: {label: mean value over the nodes of the load's groups}
         (all processes), for the plot of the loads against time."""
+        from xfemcontact.errors import XfcError
+
         mesh = self._mesh
         mpi = self.model.comm.tompi4py()
         x = mesh.x
         out = {}
 
         def mean(label, nodes, f):
-            from xfemcontact.errors import XfcError
-
             own = nodes[mesh.node_owned[nodes]]
             try:          # tractions are evaluated at quadrature points, not at nodes
                 local = (float(np.sum(f.at(t)(x=x[own, 0], y=x[own, 1]))), len(own), 1)
@@ -145,12 +173,10 @@ class Loading:
             if count and all(p[2] for p in parts):
                 out[label] = float(total / count)
 
-        for d in self.case.dirichlet:
-            nodes = np.unique(np.concatenate([mesh.group_nodes(g) for g in d.groups]))
+        for nodes, d in self._dirichlet:
             for comp, f in d.components.items():
                 mean(f"{d.key}.{comp} ({', '.join(d.groups)})", nodes, f)
-        for tr in self.case.traction:
-            nodes = np.unique(np.concatenate([mesh.group_nodes(g) for g in tr.groups]))
+        for nodes, tr in zip(self._path_nodes, self.case.traction):
             items = {"PRES": tr.pressure} if tr.pressure is not None else tr.force
             for comp, f in items.items():
                 mean(f"{tr.key}.{comp} ({', '.join(tr.groups)})", nodes, f)

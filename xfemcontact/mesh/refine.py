@@ -43,6 +43,11 @@ def refine_uniform(mesh: RawMesh, levels=1) -> RawMesh:
     """
     if not isinstance(levels, (int, np.integer)) or isinstance(levels, bool) or levels < 0:
         raise MeshError(f"refine_uniform: levels must be a non-negative integer (got {levels!r})")
+    if levels:                        # the refined mesh must fit before it is built
+        from xfemcontact import resources
+
+        resources.check_cells(mesh.cell_type, len(mesh.cells) * 4 ** int(levels), resources.current_nprocs(),
+                              f"{mesh.source}: refined {levels} time(s)", error=MeshError)
     for _ in range(int(levels)):
         mesh = _refine_once(mesh)
     return mesh

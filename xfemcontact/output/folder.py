@@ -292,6 +292,8 @@ class OutputFolder:
         """``comm``: an mpi4py communicator (rank 0 decides, everybody learns)."""
         self.path = Path(path)
         self.rank = comm.rank if comm is not None else 0
+        self.size = comm.size if comm is not None else 1
+        self.plot_helper = None  # see start_plot_helper
         self.tmp = self.path.parent / f".{self.path.name}.tmp-{os.getpid()}"
         self.probe = self.path.parent / f".{self.path.name}.probe-{os.getpid()}"
         self._made = []          # folders we created (removed again on abort)
@@ -404,6 +406,20 @@ class OutputFolder:
             (self.tmp / MARK).write_text('{"written_by": "xfemcontact", "files": []}\n',
                                          encoding="utf-8")
 
+    def start_plot_helper(self):
+        """Start the process that will draw the plots into this folder (rank 0; see
+        :mod:`xfemcontact.output.plotter`) and return it (None elsewhere); the same
+        one when called again.  Stopped by :meth:`abort`."""
+        if self.rank == 0 and self.plot_helper is None:
+            from xfemcontact.output.plotter import PlotHelper
+
+            self.plot_helper = PlotHelper.start(self.size)
+        return self.plot_helper
+
+    def stop_plot_helper(self):
+        if self.plot_helper is not None:
+            self.plot_helper.stop()
+
     def file(self, name):
         """Path of ``name`` inside the folder being written (created on first use)."""
         self._start()
@@ -481,6 +497,7 @@ class OutputFolder:
 
     def abort(self):
         """Remove the temporary folder (and the parents we made); the target is untouched."""
+        self.stop_plot_helper()
         if self.rank != 0 or not self._made or self.committed:
             return
         with critical():

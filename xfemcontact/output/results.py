@@ -1,7 +1,7 @@
 """results.json and the field files ParaView opens."""
 import numpy as np
 
-from xfemcontact import __version__, timing
+from xfemcontact import __version__, resources, timing
 
 MESHIO_CELL = {"QUAD8": "quad8", "TRIA6": "triangle6"}
 
@@ -30,7 +30,10 @@ def summary(model, converged, reason, outcomes):
         "multipliers": model.problem.summary() if model.problem is not None else None,
         "timings": {k: round(v, 4) for k, v in timing.TIMINGS.items()},
         "solver_events": timing.solver_events(model.comm),
-        "memory": {"peak_mb_per_process": timing.peak_memory_mb(model.comm)},
+        "timing_steps": {k: round(v, 4) for k, v in timing.STEPS.items()},
+        "memory": {"peak_mb_per_process": timing.peak_memory_mb(model.comm),
+                   "phases": timing.phase_memory(model.comm)},
+        "resources": resources.summary(),
         "tests": [o.as_dict() for o in outcomes],
         "interface": interface_table(model),
     }
@@ -74,16 +77,20 @@ def write_fields(folder, model):
     """
     from xfemcontact.post import postmesh
 
-    post = postmesh.build(model)
+    with timing.step("output:postmesh"):
+        post = postmesh.build(model)
     if post is None:
         return None, []
-    import meshio
-
     formats = model.case.output.formats
     written = []
     if "xdmf" in formats:
-        _write_xdmf(folder, "fields.xdmf", post.to_meshio())
+        from xfemcontact.output import xdmf
+
+        with timing.step("output:xdmf"):
+            xdmf.write(folder.file("fields.xdmf"), post)
         written += ["fields.xdmf", "fields.h5"]
+    if "vtu" in formats or "med" in formats:
+        import meshio
     if "vtu" in formats:
         meshio.write(folder.file("fields.vtu"), post.to_meshio(), file_format="vtu")
         written.append("fields.vtu")
@@ -96,41 +103,54 @@ def write_fields(folder, model):
 def write_outputs(folder, model, converged, reason, outcomes, warnings=()):
     """Every result file but results.json: fields, interface.csv, plots, report.md.
     Collective; only rank 0 writes.  ``warnings``: more lines for report.md (the
-    input checks' warnings)."""
+    input checks' warnings).
+
+    The plots go to the folder's plot helper process when there is a spare core,
+    in two batches, and are drawn here otherwise or when it fails
+    (:mod:`xfemcontact.output.plotter`): the files are the same.
+    """
     from xfemcontact.output import interface_csv, report
     from xfemcontact.post import plots
 
-    post, files = write_fields(folder, model)
-    table = interface_csv.build(model)
+    rank0 = model.comm.rank == 0
+    case = model.case
+    want_plots = rank0 and case.output.plots
+    helper = folder.start_plot_helper() if want_plots else None      # imports matplotlib meanwhile
+    with timing.step("output:interface"):
+        table = interface_csv.build(model)
     summary_now = summary(model, converged, reason, outcomes)
-    if model.comm.rank != 0:
+    title = case.title if converged else f"{case.title} -- NOT CONVERGED (last iterate)"
+    title = title.replace("$", r"\$")         # text, not mathtext
+    here = []                                  # plot jobs drawn by this process
+    if want_plots:
+        criterion = case.newton.resi_glob_rela * model.load_norm if model.solver else None
+        resi_frot = case.contact.resi_frot if model.solver and model.solver.record else None
+        jobs = plots.line_jobs(title, table, summary_now["residual_history"], summary_now["iterations"],
+                               criterion, resi_frot)
+        if not helper.send(jobs, folder.file(".")):
+            here += jobs
+    post, files = write_fields(folder, model)
+    if not rank0:
         return
     warnings = list(warnings)
     if table is not None:
-        files += interface_csv.write(folder, table)
+        with timing.step("output:interface"):
+            files += interface_csv.write(folder, table)
         warnings += table.warnings
-    if model.case.output.plots:
-        case = model.case
-        criterion = case.newton.resi_glob_rela * model.load_norm if model.solver else None
-        friction = bool(model.problem is not None and model.problem.friction)
-        resi_frot = case.contact.resi_frot if model.solver and model.solver.record else None
-        title = case.title if converged else f"{case.title} -- NOT CONVERGED (last iterate)"
-        files += plots.write(folder, title, post=post, table=table,
-                             history=summary_now["residual_history"], iterations=summary_now["iterations"],
-                             criterion=criterion, resi_frot=resi_frot, young=case.material.E,
-                             friction=friction)
-    report.write(folder, summary_now, files, case_source=model.case.source, warnings=warnings)
-
-
-def _write_xdmf(folder, name, m):
-    """XDMF + HDF5 with a relative data path (the folder is renamed afterwards)."""
-    import os
-
-    import meshio
-
-    cwd = os.getcwd()
-    os.chdir(folder.file("."))
-    try:
-        meshio.xdmf.write(name, m, data_format="HDF", compression=None)
-    finally:
-        os.chdir(cwd)
+    if want_plots:
+        with timing.step("output:plots"):
+            jobs = plots.mesh_jobs(title, post, table, case.material.E,
+                                   friction=bool(model.problem is not None and model.problem.friction))
+            if not helper.send(jobs, folder.file(".")):
+                here += jobs
+            drawn = plots.run(folder, here)
+        with timing.step("output:plots_wait"):
+            drawn += helper.finish()
+            missing = [job for job in helper.jobs if job[0] not in drawn]
+        for name, cpu in helper.times.items():      # the helper's CPU seconds, for the bench
+            timing.STEPS[f"plot_helper_cpu:{name}"] = cpu
+        if missing:
+            drawn += plots.run(folder, missing)
+        files += [name for name in plots.ORDER if name in drawn]
+    with timing.step("output:report"):
+        report.write(folder, summary_now, files, case_source=case.source, warnings=warnings)

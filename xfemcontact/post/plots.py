@@ -29,10 +29,15 @@ SIDE_STYLE = {-1: dict(color="tab:red", lw=1.6, ls="-", label="interface, LN < 0
               1: dict(color="black", lw=1.0, ls="--", label="interface, LN > 0 side")}
 
 
-def _figure(w, h):
+def _figure(w, h, **margins):
+    """A figure of ``w`` x ``h`` inches with fixed margins (``subplots_adjust``
+    arguments, fractions of the figure): matplotlib's constrained layout measured
+    every tick label twice and took half of the drawing time."""
     from matplotlib.figure import Figure
 
-    return Figure(figsize=(w, h), dpi=110, layout="constrained")
+    fig = Figure(figsize=(w, h), dpi=110)
+    fig.subplots_adjust(**margins)
+    return fig
 
 
 def _curves(cols):
@@ -50,7 +55,8 @@ def multipliers_figure(cols, title, curves=None, fields=("LAGS_C", "LAGS_F1")):
     ``"<field> computed"``, ``"<field> reference"``, ``"<field> error"``.
     """
     has_ref = any(f + "_ref" in cols for f in fields)
-    fig = _figure(12 if has_ref else 7.5, 6.5)
+    fig = _figure(12 if has_ref else 7.5, 6.5, left=0.08 if has_ref else 0.11, right=0.985, bottom=0.08,
+                  top=0.86, wspace=0.2, hspace=0.22)
     axes = fig.subplots(len(fields), 2 if has_ref else 1, sharex=True, squeeze=False)
     rows = _curves(cols)
     for i, f in enumerate(fields):
@@ -97,51 +103,238 @@ def multipliers_figure(cols, title, curves=None, fields=("LAGS_C", "LAGS_F1")):
 
 
 # -- (b) deformed mesh ------------------------------------------------------------------
+#: up to this many cells the deformed mesh is drawn as polygons with their edges; above
+#: it, as an image of the cells (a picture of this size shows no more than that)
+VECTOR_CELLS = 6000
+#: long side of that image, pixels (about the size of the axes in the figure)
+RASTER_PIXELS = 800
+#: mesh lines are drawn on the image where cells are at least this many pixels wide
+RASTER_LINE_PIXELS = 5.0
+#: triangles of each cell type drawn into the image: curved sides followed through
+#: their mid-nodes (the 4 triangles of a 6-node triangle, 6 for a QUAD8) when cells
+#: are wide enough for their mesh lines to be drawn or are sub-cells (curved along
+#: the interface); straight between vertices otherwise (a pixel or two per cell)
+RASTER_TRIANGLES = {("triangle6", True): [(0, 3, 5), (3, 1, 4), (5, 4, 2), (3, 4, 5)],
+                    ("quad8", True): [(0, 4, 7), (4, 1, 5), (5, 2, 6), (6, 3, 7), (4, 5, 6), (4, 6, 7)],
+                    ("triangle6", False): [(0, 1, 2)],
+                    ("quad8", False): [(0, 1, 2), (0, 2, 3)]}
+
+
 def deformed_figure(points, blocks, point_data, cell_data, title, field="SIYY", stress_scale=0.0):
     """The deformed post mesh coloured by the cell field ``field``.
 
     ``points (np, 2)`` m; ``blocks`` [(meshio type, conn)]; ``point_data`` with
     DX, DY (m) and NFISSU; ``cell_data`` {name: [per block]}; ``stress_scale``
     (Pa, e.g. E max|u| / size): the colour range spans at least 1e-3 of it.
-    """
-    from matplotlib.collections import LineCollection, PolyCollection
 
+    Up to :data:`VECTOR_CELLS` cells the cells are polygons with their edges;
+    beyond, the cells are drawn into an image of :data:`RASTER_PIXELS` (every
+    pixel the colour of the cell under its centre, mesh lines where cells are
+    at least :data:`RASTER_LINE_PIXELS` wide): the same picture, drawn in a
+    fraction of the time and memory of a million polygon vertices.
+    """
+    return draw_deformed(deformed_data(points, blocks, point_data, cell_data, field, stress_scale), title)
+
+
+def deformed_data(points, blocks, point_data, cell_data, field="SIYY", stress_scale=0.0):
+    """What :func:`draw_deformed` draws, reduced to what the picture shows (NumPy
+    only): the cells as polygons (small meshes) or as an RGBA image, the interface
+    lines of each side, the colour range and the titles' numbers."""
     u = np.c_[point_data["DX"], point_data["DY"]]
-    size = float(np.max(points.max(axis=0) - points.min(axis=0))) if len(points) else 1.0
+    size = float(np.max(_column_max(points) - _column_min(points))) if len(points) else 1.0
     umax = float(np.abs(np.hypot(u[:, 0], u[:, 1])).max()) if len(u) else 0.0
     scale = DEFORMATION * size / umax if umax > 0 else 0.0
     xd = points + scale * u
-    polys = [xd[conn[:, OUTLINE[t]]] for t, conn in blocks]
     values = np.concatenate(cell_data[field]) if field in cell_data else None
-    fig = _figure(8.5, 7.5)
-    ax = fig.subplots()
-    pc = PolyCollection([p for block in polys for p in block], edgecolors="0.25", linewidths=0.25)
-    if values is not None:
-        pc.set_array(values)
-        pc.set_cmap("viridis")
-        pc.set_clim(*_colour_limits(values, stress_scale))
-    ax.add_collection(pc)
+    ncells = sum(len(conn) for _, conn in blocks)
+    d = {"field": field, "scale": scale, "umax": umax, "how_drawn": "",
+         "clim": _colour_limits(values, stress_scale) if values is not None and len(values) else None,
+         "range": (float(values.min()), float(values.max())) if values is not None and len(values) else None}
+    if ncells <= VECTOR_CELLS or values is None:
+        d["polygons"] = [xd[conn[:, OUTLINE[t]]] for t, conn in blocks]       # per block (k, nodes, 2)
+        d["values"] = values
+    else:
+        d["image"], d["lines"], d["extent"], d["how_drawn"] = _raster(xd, blocks, values, cell_data.get("subcell"))
     nf = point_data.get("NFISSU")
+    d["interface"] = {}
     if nf is not None:
         for side in (-1, 1):
             segs = _interface_edges(blocks, nf, side, xd)
             if len(segs):
-                ax.add_collection(LineCollection(segs, **SIDE_STYLE[side]))
-        if (nf != 0).any():
-            ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=2, fontsize=9, frameon=False)
-    ax.autoscale_view()
+                d["interface"][side] = segs
+        d["legend"] = bool((nf != 0).any())
+    if len(xd):
+        lo, hi = _column_min(xd), _column_max(xd)
+        pad = 0.02 * max(float(np.max(hi - lo)), 1e-300)
+        d["xlim"], d["ylim"] = (lo[0] - pad, hi[0] + pad), (lo[1] - pad, hi[1] + pad)
+    return d
+
+
+def draw_deformed(d, title):
+    """The figure of :func:`deformed_data`'s ``d``."""
+    import matplotlib.colors as mcolors
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.collections import LineCollection, PolyCollection
+
+    fig = _figure(8.5, 7.5, left=0.09, right=0.92, bottom=0.13, top=0.87)
+    ax = fig.subplots()
+    field = d["field"]
+    mappable = None
+    if "image" in d:
+        mappable = ScalarMappable(norm=mcolors.Normalize(*d["clim"]), cmap="viridis")
+        img = d["image"]
+        rgba = mappable.to_rgba(np.nan_to_num(img, nan=d["clim"][0]))          # (H, W, 4) floats
+        rgba[np.isnan(img), 3] = 0.0
+        if d["lines"] is not None:                        # mesh lines: half-way to dark grey
+            on = d["lines"]
+            rgba[on, :3] = 0.5 * rgba[on, :3] + 0.125
+            rgba[on, 3] = 1.0
+        ax.imshow(rgba, origin="lower", interpolation="nearest", extent=d["extent"])
+    else:
+        pc = PolyCollection([p for block in d["polygons"] for p in block], edgecolors="0.25", linewidths=0.25)
+        if d["values"] is not None:
+            pc.set_array(d["values"])
+            pc.set_cmap("viridis")
+            pc.set_clim(*d["clim"])
+            mappable = pc
+        ax.add_collection(pc)
+    for side, segs in d["interface"].items():
+        ax.add_collection(LineCollection(segs, **SIDE_STYLE[side]))
+    if d.get("legend"):
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=2, fontsize=9, frameon=False)
+    if "xlim" in d:
+        ax.set_xlim(*d["xlim"])
+        ax.set_ylim(*d["ylim"])
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    if values is not None:
-        cb = fig.colorbar(pc, ax=ax, shrink=0.85)
+    if mappable is not None:
+        cb = fig.colorbar(mappable, ax=ax, shrink=0.85)
+        lo, hi = d["range"]
         cb.set_label(f"{field} ({FIELD_UNITS.get(field, '')}), mean per cell and sub-cell\n"
-                     f"min {values.min():.7g}, max {values.max():.7g}")
+                     f"min {lo:.7g}, max {hi:.7g}")
         cb.formatter.set_useOffset(False)
         cb.update_ticks()
+    scale, umax = d["scale"], d["umax"]
     how = f"displacements x {scale:.3g}" if scale > 0 else "no displacement"
-    fig.suptitle(f"{title}\ndeformed mesh, {how} (max |u| = {umax:.3g} m), coloured by {field}")
+    fig.suptitle(f"{title}\ndeformed mesh, {how} (max |u| = {umax:.3g} m), coloured by {field}{d['how_drawn']}")
     return fig
+
+
+def _raster(xd, blocks, values, subcell=None):
+    """The cells drawn into an image (large meshes), NumPy only: returns the image of
+    the cell values ``(H, W)`` (float32, NaN outside the mesh), the pixels of the mesh
+    lines ``(H, W)`` bool or None, the extent, and the title words.  ``subcell``: per
+    block, the sub-cell index of each cell (-1 uncut), if known."""
+    lo, hi = _column_min(xd), _column_max(xd)
+    span = np.maximum(hi - lo, 1e-300)
+    px = float(span.max()) / RASTER_PIXELS                      # pixel size, m
+    W, H = (np.ceil(span / px).astype(int) + 1).tolist()
+    ncells = sum(len(conn) for _, conn in blocks)
+    cell_px = float(np.sqrt(W * H / max(ncells, 1)))            # mean cell width, pixels (bounding box)
+    lines = cell_px >= RASTER_LINE_PIXELS
+    tri, cell = [], []
+    start = 0
+    for b, (t, conn) in enumerate(blocks):
+        curved = np.ones(len(conn), bool) if lines else (
+            subcell[b] >= 0 if subcell is not None else np.ones(len(conn), bool))
+        index = np.arange(start, start + len(conn))
+        for kind in (False, True):
+            rows = np.nonzero(curved == kind)[0]
+            if len(rows):
+                local = np.asarray(RASTER_TRIANGLES[t, kind])
+                tri.append(conn[rows][:, local].reshape(-1, 3))
+                cell.append(np.repeat(index[rows], len(local)))
+        start += len(conn)
+    tri, cell = np.concatenate(tri), np.concatenate(cell)
+    label = rasterise((xd[tri] - lo) / px, cell, W, H)
+    img = np.full((H, W), np.nan, np.float32)
+    inside = label >= 0
+    img[inside] = values[label[inside]]
+    mask = None
+    if lines:
+        edges = np.concatenate([conn[:, OUTLINE[t]][:, _ring(len(OUTLINE[t]))].reshape(-1, 2)
+                                for t, conn in blocks])
+        ex, ey = _segment_pixels((xd[edges] - lo) / px, W, H)
+        mask = np.zeros((H, W), bool)
+        mask[ey, ex] = True
+    extent = (lo[0] - 0.5 * px, lo[0] + (W - 0.5) * px, lo[1] - 0.5 * px, lo[1] + (H - 0.5) * px)
+    words = (f"\n{ncells} cells drawn as an image of {W} x {H} pixels"
+             + ("" if lines else f" (cells of {cell_px:.1g} pixels: no mesh lines)"))
+    return img, mask, extent, words
+
+
+def _column_min(a):
+    """Column minima of ``a (n, k)`` (numpy reduces short rows slowly along axis 0)."""
+    return np.array([a[:, j].min() for j in range(a.shape[1])])
+
+
+def _column_max(a):
+    return np.array([a[:, j].max() for j in range(a.shape[1])])
+
+
+def _ring(k):
+    """Index pairs (i, i + 1 mod k) around a polygon of ``k`` nodes, as an array ``(k, 2)``."""
+    i = np.arange(k)
+    return np.c_[i, (i + 1) % k]
+
+
+def rasterise(tri, label, W, H, chunk=1 << 21):
+    """Label image ``(H, W)`` of triangles ``tri (T, 3, 2)`` given in pixel units
+    (pixel ``(i, j)`` has its centre at ``(i, j)``): every pixel whose centre lies
+    in triangle ``t`` gets ``label[t]`` (a later triangle wins), -1 elsewhere.
+
+    Each triangle's three edge functions ``w = a x + b y + c`` (positive inside for
+    a counter-clockwise triangle) are tested at the pixel centres of its bounding
+    box, ``chunk`` candidate pixels at a time."""
+    img = np.full((H, W), -1, np.int64)
+    x, y = tri[..., 0], tri[..., 1]
+    area = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0])
+    sgn = np.where(area < 0, -1.0, 1.0)
+    coef = []
+    for i, j in ((0, 1), (1, 2), (2, 0)):                    # edge i -> j, inside on its left
+        a = -(y[:, j] - y[:, i]) * sgn
+        b = (x[:, j] - x[:, i]) * sgn
+        coef.append((a, b, -(a * x[:, i] + b * y[:, i])))
+    x0 = np.clip(np.ceil(np.minimum(np.minimum(x[:, 0], x[:, 1]), x[:, 2])), 0, W).astype(np.int64)
+    x1 = np.clip(np.floor(np.maximum(np.maximum(x[:, 0], x[:, 1]), x[:, 2])), -1, W - 1).astype(np.int64)
+    y0 = np.clip(np.ceil(np.minimum(np.minimum(y[:, 0], y[:, 1]), y[:, 2])), 0, H).astype(np.int64)
+    y1 = np.clip(np.floor(np.maximum(np.maximum(y[:, 0], y[:, 1]), y[:, 2])), -1, H - 1).astype(np.int64)
+    nx, ny = np.maximum(x1 - x0 + 1, 0), np.maximum(y1 - y0 + 1, 0)
+    count = nx * ny
+    keep = np.nonzero(count)[0]
+    ends = np.cumsum(count[keep])
+    first = 0
+    while first < len(keep):
+        base = ends[first - 1] if first else 0
+        last = max(int(np.searchsorted(ends, base + chunk, side="right")), first + 1)
+        t = keep[first:last]
+        c = count[t]
+        tt = np.repeat(t, c)
+        k = np.arange(int(c.sum())) - np.repeat(np.cumsum(c) - c, c)
+        nxt = nx[tt]
+        ix = x0[tt] + k % nxt
+        iy = y0[tt] + k // nxt
+        inside = np.ones(len(tt), bool)
+        for a, b, d in coef:
+            inside &= a[tt] * ix + b[tt] * iy + d[tt] >= 0
+        img[iy[inside], ix[inside]] = label[tt[inside]]
+        first = last
+    return img
+
+
+def _segment_pixels(seg, W, H):
+    """Pixels ``(ix, iy)`` along segments ``seg (S, 2, 2)`` in pixel units, one sample
+    per pixel of length."""
+    d = seg[:, 1] - seg[:, 0]
+    n = np.ceil(np.abs(d).max(axis=1)).astype(np.int64) + 1
+    s = np.repeat(n, n)
+    k = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+    f = (k / np.maximum(s - 1, 1))[:, None]
+    p = np.repeat(seg[:, 0], n, axis=0) + f * np.repeat(d, n, axis=0)
+    ix = np.clip(np.rint(p[:, 0]).astype(np.int64), 0, W - 1)
+    iy = np.clip(np.rint(p[:, 1]).astype(np.int64), 0, H - 1)
+    return ix, iy
 
 
 def _colour_limits(v, scale=0.0):
@@ -175,7 +368,7 @@ def status_figure(cols, title, jump_scale=0.0, friction=True):
     The friction state is -1 where the point is open (no friction), else
     0 stick / 1 slip.
     """
-    fig = _figure(10, 6.5)
+    fig = _figure(10, 6.5, left=0.08, right=0.91, bottom=0.08, top=0.86, hspace=0.25)
     axes = fig.subplots(2, 1, sharex=True)
     rows = _curves(cols)
     contact = np.asarray(cols["contact"])
@@ -226,7 +419,8 @@ def convergence_figure(history, iterations, title, criterion=None, resi_frot=Non
     contact = list(iterations.get("contact", []))
     thr = list(iterations.get("threshold_changes", []))
     changes = list(iterations.get("status_changes", []))
-    fig = _figure(12 if thr else 8, 5.5)
+    fig = _figure(12 if thr else 8, 5.5, left=0.07 if thr else 0.1, right=0.985, bottom=0.1, top=0.8,
+                  wspace=0.22)
     axes = fig.subplots(1, 2 if thr else 1, squeeze=False)[0]
     ax = axes[0]
     h = np.maximum(np.asarray(history, float), 1e-300)
@@ -282,41 +476,73 @@ def _solve_labels(contact, n, friction=True):
 
 
 # -- driver ----------------------------------------------------------------------------
+#: savefig options: zlib level 1 (level 6 spent half the saving time for files 8 % smaller)
+SAVE_OPTIONS = {"pil_kwargs": {"compress_level": 1}}
+
+
+def line_jobs(title, table=None, history=None, iterations=None, criterion=None, resi_frot=None):
+    """The plots that need only the interface table and the iteration record, as jobs
+    ``[(png name, function name, args)]`` (see :func:`run`)."""
+    jobs = []
+    if table is not None and len(table.columns["s"]):
+        jobs.append(("plot_multipliers.png", "multipliers_figure", (table.columns, title, table.curves)))
+    if history is not None and iterations and len(iterations.get("newton_per_solve", [])) > 1:
+        jobs.append(("plot_convergence.png", "convergence_figure", (history, iterations, title, criterion,
+                                                                    resi_frot)))
+    return jobs
+
+
+def mesh_jobs(title, post=None, table=None, young=0.0, friction=True):
+    """The plots that need the post-processing mesh (the status plot scales its jump
+    axes with the largest displacement): the deformed mesh, reduced by
+    :func:`deformed_data` to what the picture shows, and the statuses."""
+    umax, size = 0.0, 1.0
+    if post is not None and len(post.points):
+        umax = float(np.nan_to_num(np.hypot(post.point_data["DX"], post.point_data["DY"])).max())
+        size = float(np.max(_column_max(post.points) - _column_min(post.points))) or 1.0
+    jobs = []
+    if table is not None and len(table.columns["s"]):
+        jobs.append(("plot_status.png", "status_figure", (table.columns, title, umax, friction)))
+    if post is not None:
+        data = deformed_data(post.points, post.blocks, post.point_data, post.cell_data,
+                             stress_scale=young * umax / size)
+        jobs.append(("plot_deformed.png", "draw_deformed", (data, title)))
+    return jobs
+
+
+ORDER = ("plot_multipliers.png", "plot_status.png", "plot_deformed.png", "plot_convergence.png")
+
+
+def run(folder, jobs):
+    """Draw ``jobs`` into ``folder`` (an OutputFolder); returns the names written."""
+    if not jobs:
+        return []
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    written = []
+    for name, function, args in jobs:
+        try:
+            fig = globals()[function](*args)
+            FigureCanvasAgg(fig)             # the figure is drawn once, by savefig
+            fig.savefig(folder.file(name), **SAVE_OPTIONS)
+        except (ValueError, IndexError, TypeError, OverflowError, FloatingPointError,
+                RuntimeError) as exc:
+            # a plot that cannot be drawn (non-finite results of a failed run) is left
+            # out: the result files matter more
+            print(f"warning: {name} not drawn ({type(exc).__name__})", file=sys.stderr, flush=True)
+            continue
+        written.append(name)
+    return written
+
+
 def write(folder, title, post=None, table=None, history=None, iterations=None,
           criterion=None, resi_frot=None, young=0.0, friction=True):
     """Draw every plot the data allows into ``folder`` (rank 0); returns the names.
 
     ``young`` (Pa) sets the stress scale of the colour range (E max|u| / size).
     """
-    written = []
-    umax, size = 0.0, 1.0
     title = title.replace("$", r"\$")        # text, not mathtext
-    if post is not None and len(post.points):
-        umax = float(np.nan_to_num(np.hypot(post.point_data["DX"], post.point_data["DY"])).max())
-        size = float(np.max(post.points.max(axis=0) - post.points.min(axis=0))) or 1.0
-
-    def save(draw, name):
-        """A plot that cannot be drawn (non-finite results of a failed run) is left out:
-        the result files matter more."""
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-        try:
-            fig = draw()
-            FigureCanvasAgg(fig)             # the figure is drawn once, by savefig
-            fig.savefig(folder.file(name))
-        except (ValueError, IndexError, TypeError, OverflowError, FloatingPointError,
-                RuntimeError) as exc:
-            print(f"warning: {name} not drawn ({type(exc).__name__})", file=sys.stderr, flush=True)
-            return
-        written.append(name)
-
-    if table is not None and len(table.columns["s"]):
-        save(lambda: multipliers_figure(table.columns, title, table.curves), "plot_multipliers.png")
-        save(lambda: status_figure(table.columns, title, umax, friction), "plot_status.png")
-    if post is not None:
-        save(lambda: deformed_figure(post.points, post.blocks, post.point_data, post.cell_data, title,
-                                     stress_scale=young * umax / size), "plot_deformed.png")
-    if history is not None and iterations and len(iterations.get("newton_per_solve", [])) > 1:
-        save(lambda: convergence_figure(history, iterations, title, criterion, resi_frot),
-             "plot_convergence.png")
-    return written
+    jobs = line_jobs(title, table, history, iterations, criterion, resi_frot) + \
+        mesh_jobs(title, post, table, young, friction)
+    jobs.sort(key=lambda j: ORDER.index(j[0]))
+    return run(folder, jobs)

@@ -58,6 +58,15 @@ class PostMesh:
     point_data: dict        # name -> (np,)
     cell_data: dict         # name -> [(k,) per block]
 
+    def point_fields(self):
+        """``(name, array)`` of the point fields of the XDMF and VTU files: those of
+        :attr:`point_data`, then ``displacement`` (DX, DY, 0) for ParaView."""
+        yield from self.point_data.items()
+        pd = self.point_data
+        disp = np.zeros((len(self.points), 3))
+        disp[:, 0], disp[:, 1] = pd["DX"], pd["DY"]
+        yield "displacement", disp
+
     def to_meshio(self, med=False):
         """A meshio.Mesh: 3-D points and a ``displacement`` vector (for ParaView), or for
         MED (``med``) 2-D points and the node groups NFISSU, NM (LN < 0 copies) and NP."""
@@ -83,9 +92,9 @@ def _pieces(model, xl):
     """The post cells of this process, as padded arrays.
 
     Returns a dict: ``cell (m,)`` input ids, ``sub (m,)`` sub-cell index (-1
-    uncut), ``nn (m,)`` node count, ``x (m, 8, 2)`` node coordinates (m),
-    ``node (m, 8)`` input node ids (-1 at sub-cell nodes: merged by position),
-    ``u (m, 8, 2)`` displacements (m), ``side (m,)``, ``sig``, ``eps (m, 3)``.
+    uncut), ``nn (m,)`` node count, ``x (m, nn, 2)`` node coordinates (m; nn the parent cell's node count),
+    ``node (m, nn)`` input node ids (-1 at sub-cell nodes: merged by position),
+    ``u (m, nn, 2)`` displacements (m), ``side (m,)``, ``sig``, ``eps (m, 3)``.
     """
     mesh, geo, layout = model.mesh, model.geo, model.layout
     el = mesh.element
@@ -104,10 +113,11 @@ def _pieces(model, xl):
     out = {}
     for k in parts[0]:
         arrs = [p[k] for p in parts]
-        if arrs[0].ndim > 1:         # pad nodes to 8
-            arrs = [np.concatenate([a, np.full((len(a), 8 - a.shape[1]) + a.shape[2:], -1 if k == "node" else 0,
+        if arrs[0].ndim > 1:         # pad nodes to the parent's count (sub-cells have 6)
+            arrs = [a if a.shape[1] == el.nn else
+                    np.concatenate([a, np.full((len(a), el.nn - a.shape[1]) + a.shape[2:], -1 if k == "node" else 0,
                                                a.dtype)], axis=1) for a in arrs]
-        out[k] = np.concatenate(arrs)
+        out[k] = arrs[0] if len(arrs) == 1 else np.concatenate(arrs)
     return out
 
 
@@ -189,14 +199,22 @@ def build(model):
     """The PostMesh on rank 0, None elsewhere.  Collective."""
     xl = model.local_solution()
     payload = (_pieces(model, xl), interface_samples(model), _cut_cell_nodes(model))
-    parts = model.comm.tompi4py().gather(payload, root=0)
+    del xl
+    mpi = model.comm.tompi4py()
+    parts = [payload] if mpi.size == 1 else mpi.gather(payload, root=0)    # one process: no copy
     if parts is None:
         return None
-    pieces = {k: np.concatenate([p[0][k] for p in parts]) for k in parts[0][0]}
+    del payload
+
+    def joined(arrays):
+        return arrays[0] if len(arrays) == 1 else np.concatenate(arrays)
+
+    pieces = {k: joined([p[0][k] for p in parts]) for k in parts[0][0]}
     samples = None
     if parts[0][1] is not None:
-        samples = {k: np.concatenate([p[1][k] for p in parts]) for k in parts[0][1]}
+        samples = {k: joined([p[1][k] for p in parts]) for k in parts[0][1]}
     near = np.unique(np.concatenate([p[2] for p in parts]))
+    del parts
     return assemble(pieces, samples, model.mesh.cell_type, near)
 
 
@@ -215,11 +233,14 @@ def assemble(pieces, samples, cell_type, near=None):
     tri = element("TRIA6")
     parent = element(cell_type)
     block = (pieces["nn"] == 6).astype(int) if cell_type == "QUAD8" else np.zeros(len(pieces["nn"]), int)
-    order = np.lexsort((pieces["sub"], pieces["cell"], block))
-    p = {k: v[order] for k, v in pieces.items()}
-    block = block[order]
+    if _sorted(block, pieces["cell"], pieces["sub"]):                        # one process, QUAD8
+        p = pieces
+    else:
+        order = np.lexsort((pieces["sub"], pieces["cell"], block))
+        p = {k: v[order] for k, v in pieces.items()}
+        block = block[order]
     nn = p["nn"]
-    slot = np.arange(8)[None, :] < nn[:, None]                                # (m, 8) live node slots
+    slot = np.arange(p["x"].shape[1])[None, :] < nn[:, None]                  # (m, width) live node slots
     xs = p["x"][slot]                                                         # (S, 2) in cell order
     side_s = np.repeat(p["side"], nn)
     loc = slot_locations(xs, p["node"][slot], near)
@@ -259,6 +280,19 @@ def assemble(pieces, samples, cell_type, near=None):
         cd["cell"].append(p["cell"][rows].astype(np.int64))
         cd["subcell"].append(p["sub"][rows].astype(np.int64))
     return PostMesh(points, blocks, pd, cd)
+
+
+def _sorted(*keys):
+    """True when rows are in lexicographic order of ``keys`` (first key first)."""
+    if len(keys[0]) < 2:
+        return True
+    ahead = np.zeros(len(keys[0]) - 1, bool)          # decided: strictly increasing at an earlier key
+    for k in keys:
+        d = np.diff(k)
+        if np.any((d < 0) & ~ahead):
+            return False
+        ahead |= d > 0
+    return True
 
 
 def slot_locations(xs, node, near=None):

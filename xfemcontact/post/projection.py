@@ -7,17 +7,32 @@ formulas and comparing them at the interface points (code_aster's NFISSU points)
 gives the error the space itself cannot go below, to set the computed errors
 against (``bench/multiplier_limit.py``).
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
 from xfemcontact._petsc import PETSc
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
 
-def _gathered_system(model, values):
+    from xfemcontact.case.formula import Formula
+    from xfemcontact.model import Model
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+
+
+def _gathered_system(model: Model,
+                     values: list[FloatArray]) -> tuple[IntArray, Any, list[NDArray[Any]]]:
     """Mass matrix of the carriers' traces and right-hand sides of ``values`` (list of
     (k, ng) arrays at the interface Gauss points), summed over every process."""
-    problem = model.problem
+    # a contact problem (multipliers): phi and rep_index are not in the InterfaceProblem protocol
+    problem: Any = model.problem
     w, phi = problem.points.w, problem.phi                      # (k, ng), (k, ng, m)
     dof = problem.rep_index                                      # (k, m) global LAGS_C index
     M = np.einsum("kq,kqa,kqb->kab", w, phi, phi)
@@ -40,7 +55,7 @@ def _gathered_system(model, values):
     return ids, A, B
 
 
-def best_errors(model, lags_c, lags_f1):
+def best_errors(model: Model, lags_c: Formula, lags_f1: Formula) -> dict[str, float]:
     """Largest errors at the interface points of the L2-best LAGS_C and LAGS_F1.
 
     ``lags_c``, ``lags_f1``: reference formulas ``f(x=..., y=...)`` (Pa and -).  The
@@ -52,7 +67,7 @@ def best_errors(model, lags_c, lags_f1):
     """
     from mpi4py import MPI      # initialised by PETSc by now (see _petsc: PML choice first)
 
-    problem = model.problem
+    problem: Any = model.problem          # a contact problem (see _gathered_system)
     xg = problem.points.x
     c = lags_c(x=xg[..., 0], y=xg[..., 1])
     f = lags_f1(x=xg[..., 0], y=xg[..., 1])

@@ -15,22 +15,36 @@ Criterion ABSOLU: ``|value - reference| <= tolerance``; RELATIF:
 ``|value - reference| <= tolerance |reference|`` (for MAX_ERROR, relative to the
 largest |reference formula| over the samples).
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Iterable
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+    from petsc4py import PETSc
+
+    from xfemcontact.case.formula import Formula
+    from xfemcontact.case.load import TestSpec
+
+    FloatArray = NDArray[np.float64]
 
 
 @dataclass
 class Samples:
     """One process's samples of one kind: coordinates and field arrays (same length)."""
 
-    x: np.ndarray
-    y: np.ndarray
-    fields: dict
+    x: FloatArray                     # (n,) m
+    y: FloatArray                     # (n,) m
+    fields: dict[str, FloatArray]     # field name -> (n,)
 
 
 @dataclass
 class Outcome:
+    """The result of one test (``at``: where the value was found, for MIN, MAX,
+    VALUE and MAX_ERROR)."""
     name: str
     field: str
     type: str
@@ -40,14 +54,14 @@ class Outcome:
     criterion: str
     ok: bool
     count: int
-    at: tuple = None
-    inst: float = None         # the instant tested (cases with [instants]), None otherwise
+    at: tuple[float, float] | None = None
+    inst: float | None = None  # the instant tested (cases with [instants]), None otherwise
 
     @property
-    def error(self):
+    def error(self) -> float:
         return abs(self.value - self.reference) if np.isfinite(self.value) else np.inf
 
-    def as_dict(self):
+    def as_dict(self) -> dict[str, Any]:
         return {"name": self.name, "field": self.field, "type": self.type, "value": self.value,
                 "reference": self.reference, "error": self.error, "tolerance": self.tolerance,
                 "criterion": self.criterion, "ok": self.ok, "samples": self.count,
@@ -103,7 +117,8 @@ def _combine(test, parts):
     return count, v[1], (v[2], v[3]), None
 
 
-def evaluate(tests, samples, reference, comm):
+def evaluate(tests: Iterable[TestSpec], samples: dict[str, Samples], reference: dict[str, Formula],
+             comm: PETSc.Comm) -> list[Outcome]:
     """Outcomes of ``tests`` (TestSpec) on all processes.
 
     ``samples``: {"interface"|"node"|"cell": Samples} of this process (a kind
@@ -125,9 +140,10 @@ def evaluate(tests, samples, reference, comm):
     return out
 
 
-def table(outcomes):
+def table(outcomes: Iterable[Outcome]) -> list[str]:
     """The test table as text lines (code_aster-like); with an instant column when the
     outcomes name their instants."""
+    outcomes = list(outcomes)
     timed = any(o.inst is not None for o in outcomes)
     head = f"{'inst':>10} " if timed else ""
     lines = [f"{'':4} {head}{'test':32} {'computed':>17} {'reference':>17} {'error':>10} {'tolerance':>10} criterion"]

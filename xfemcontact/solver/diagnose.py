@@ -5,14 +5,22 @@ and interface problem after a solve whose outermost reason is not positive, and
 returns the facts written to results.json (``"diagnostics"``) and the one-line
 message of the error.
 """
+from __future__ import annotations
+
+import os
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 
 from xfemcontact._petsc import PETSc
 
+if TYPE_CHECKING:
+    from xfemcontact.model import Model
 
-def _names(reasons):
+
+def _names(reasons: Any) -> dict[int, str]:
     """value -> name of a PETSc reason enumeration (the first name of aliases)."""
-    out = {}
+    out: dict[int, str] = {}
     for name, value in vars(reasons).items():
         if isinstance(value, int) and not name.startswith("_"):
             out.setdefault(value, name)
@@ -31,7 +39,7 @@ _MUMPS_HINTS = {
 }
 
 
-def coef_frot_hint(model):
+def coef_frot_hint(model: Model) -> str:
     """A sentence suggesting COEF_FROT of the order of E / (h mu |LAGS_C|) when the one
     given is far below it (semi-multiplier form), else "" (collective).
 
@@ -42,6 +50,7 @@ def coef_frot_hint(model):
     """
     from mpi4py import MPI
 
+    problem: Any                # the Gauss-point problem's law, largest_threshold: not in the protocol
     problem, mesh = model.problem, model.mesh
     law = problem.law
     if not problem.fallbacks or law.unknown == "traction":   # only the Gauss-point form has a trial value
@@ -60,7 +69,7 @@ def coef_frot_hint(model):
             f"{scale:.2g}): try coef_frot of that order, Newton then tells stick from slip")
 
 
-def diagnose(model, reason, outdir):
+def diagnose(model: Model, reason: int, outdir: str | os.PathLike[str]) -> dict[str, Any]:
     """What did not converge and why (collective: every process gets the same dict).
 
     Keys: ``loop`` ("newton", "linear solver", "contact" or "friction"),
@@ -73,7 +82,12 @@ def diagnose(model, reason, outdir):
     INFOG(1)) and ``message`` (one line, the error printed).
     """
     case, solver = model.case, model.solver
+    assert solver is not None                       # after a solve
     snes, loops = solver.newton, solver.record
+    # with loops (a record): the interface problem and the loops' SNES (petsc4py), else None
+    problem: Any = model.problem
+    outer: Any = solver.outer
+    contact: Any = solver.contact
     R = PETSc.SNES.ConvergedReason
     newton_reason = int(snes.getConvergedReason())
     history = [float(r) for r in solver.newton_test.history]
@@ -96,9 +110,9 @@ def diagnose(model, reason, outdir):
         threshold = float(loops.threshold_changes[-1])
 
     loop = "newton"
-    friction = loops is not None and model.problem.friction
+    friction = loops is not None and problem.friction
     if loops is not None:
-        contact_reason = int(solver.contact.getConvergedReason())
+        contact_reason = int(contact.getConvergedReason())
         if friction and reason == R.DIVERGED_MAX_IT:
             loop = "friction"
         elif contact_reason == R.DIVERGED_MAX_IT:
@@ -109,11 +123,11 @@ def diagnose(model, reason, outdir):
     c = case.contact
     if loop == "friction":
         what = (f"friction thresholds still changing after ITER_FROT_MAXI = "
-                f"{solver.outer.getTolerances()[3]} iterations (relative change "
+                f"{outer.getTolerances()[3]} iterations (relative change "
                 f"{threshold:.3g} > RESI_FROT = {c.resi_frot:g}); raise iter_frot_maxi")
     elif loop == "contact":
         what = (f"contact statuses still changing after ITER_CONT_MAXI = "
-                f"{solver.contact.getTolerances()[3]} iterations; raise iter_cont_maxi, "
+                f"{contact.getTolerances()[3]} iterations; raise iter_cont_maxi, "
                 f"or use smaller load steps")
     elif loop == "linear solver":
         what = f"the linear solver failed ({_KSP.get(ksp_reason, ksp_reason)}"

@@ -32,13 +32,25 @@ For a cut cell (strictly positive and negative node values):
 A cell one of whose edges lies on the interface (LN = 0 at its three nodes) is
 not cut; the edge is an interface segment owned by the cell on the - side.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from xfemcontact.errors import GeometryError
-from xfemcontact.fem.elements import Seg3, affine_cells, element
+from xfemcontact.fem.elements import Element, Seg3, affine_cells, element
 from xfemcontact.xfem.levelset import edge_crossing
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike, NDArray
+
+    from xfemcontact.mesh.plex import LocalMesh
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
 
 NEWTON_ITS = 50
 
@@ -47,11 +59,11 @@ NEWTON_ITS = 50
 class Segments:
     """Interface segments, one per owning cell, in parent reference coordinates."""
 
-    cells: np.ndarray     # (k,) local cell indices
-    nodes: np.ndarray     # (k, 3, 2) xi of (P1, P2, P3); + side on the left of P1 -> P2
-    where: np.ndarray     # (k, 2) local edge of P1, P2, or -1 - local vertex
+    cells: IntArray       # (k,) local cell indices
+    nodes: FloatArray     # (k, 3, 2) xi of (P1, P2, P3); + side on the left of P1 -> P2
+    where: IntArray       # (k, 2) local edge of P1, P2, or -1 - local vertex
 
-    def __len__(self):
+    def __len__(self) -> int:
         return len(self.cells)
 
 
@@ -59,23 +71,24 @@ class Segments:
 class SubCells:
     """Sub-triangles of cut cells, padded to ``ns`` per cell."""
 
-    cells: np.ndarray     # (k,) local cell indices
-    nodes: np.ndarray     # (k, ns, 6, 2) xi of the 6 nodes of each sub-triangle
-    side: np.ndarray      # (k, ns) -1 / +1, 0 for padding
+    cells: IntArray       # (k,) local cell indices
+    nodes: FloatArray     # (k, ns, 6, 2) xi of the 6 nodes of each sub-triangle
+    side: IntArray        # (k, ns) -1 / +1, 0 for padding
 
 
-def phi_at(el, phi_cell, xi):
+def phi_at(el: Element, phi_cell: FloatArray, xi: FloatArray) -> FloatArray:
     """LN at reference points ``xi (k, ..., 2)`` of cells with node values ``(k, nn)``."""
     N = el.shape(xi)
     return np.einsum("k...a,ka->k...", N, phi_cell)
 
 
-def grad_phi_ref(el, phi_cell, xi):
+def grad_phi_ref(el: Element, phi_cell: FloatArray, xi: FloatArray) -> FloatArray:
+    """Reference gradients ``(k, ..., 2)`` of LN at ``xi (k, ..., 2)``."""
     return np.einsum("k...ai,ka->k...i", el.dshape(xi), phi_cell)
 
 
 # -- intersection points -------------------------------------------------------
-def intersection_points(el, phi_cell):
+def intersection_points(el: Element, phi_cell: FloatArray) -> tuple[FloatArray, IntArray, IntArray]:
     """Boundary intersection points of cut cells.
 
     Returns ``(xi (k, 2, 2), where (k, 2), count (k,))``; cells with a count
@@ -104,13 +117,13 @@ def intersection_points(el, phi_cell):
     return xi, where, count
 
 
-def _edge_sign(pa, pb, pm):
+def _edge_sign(pa: FloatArray, pb: FloatArray, pm: FloatArray) -> FloatArray:
     """Sign of LN inside each edge that has a zero vertex (uniform after readjustment)."""
     other = np.where(pa != 0, pa, pb)
     return np.sign(np.where(pm != 0, pm, other))
 
 
-def _perimeter(el, where, xi):
+def _perimeter(el: Element, where: IntArray, xi: FloatArray) -> FloatArray:
     """Perimeter coordinate t in [0, nv) of boundary points."""
     t = np.empty(where.shape)
     vert = where < 0
@@ -125,7 +138,8 @@ def _perimeter(el, where, xi):
 
 
 # -- the segment ---------------------------------------------------------------
-def segment_midpoints(el, phi_cell, xc, p1, p2, cell_ids):
+def segment_midpoints(el: Element, phi_cell: FloatArray, xc: FloatArray, p1: FloatArray,
+                      p2: FloatArray, cell_ids: IntArray) -> FloatArray:
     """P3: LN = 0 on the perpendicular bisector of P1 P2 in physical coordinates
     (cells ``xc (k, nn, 2)``); reference coordinates ``(k, 2)``.  Where that point
     is not found inside the cell (a badly distorted cell), the zero of LN on the
@@ -148,7 +162,7 @@ def segment_midpoints(el, phi_cell, xc, p1, p2, cell_ids):
     p3_ref = mid + t[:, None] * d
     scale = np.abs(phi_cell).max(axis=1)
 
-    def off(p):
+    def off(p: FloatArray) -> BoolArray:
         return ~(np.abs(phi_at(el, phi_cell, p)) <= 1e-10 * scale) | ~el.contains(p, 1e-9)
 
     p3 = _physical_bisector(el, phi_cell, xc, p1, p2, p3_ref)
@@ -161,7 +175,8 @@ def segment_midpoints(el, phi_cell, xc, p1, p2, cell_ids):
     return p3
 
 
-def _physical_bisector(el, phi_cell, xc, p1, p2, xi):
+def _physical_bisector(el: Element, phi_cell: FloatArray, xc: FloatArray, p1: FloatArray,
+                       p2: FloatArray, xi: FloatArray) -> FloatArray:
     """Newton from ``xi`` on LN(xi) = 0, (x(xi) - m) . c = 0 with m, c the midpoint
     and chord of the physical P1 P2.  The reference bisector's point (``xi``) is
     already the answer on cells whose map is a similarity; elsewhere it is a few
@@ -189,7 +204,8 @@ def _physical_bisector(el, phi_cell, xc, p1, p2, xi):
     return xi
 
 
-def segment_curve(el, xc, nodes, s, cell_ids=None):
+def segment_curve(el: Element, xc: FloatArray, nodes: FloatArray, s: ArrayLike,
+                  cell_ids: IntArray | None = None) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Points of segments with reference nodes ``nodes (k, 3, 2)`` at abscissae ``s (p,)``.
 
     The segment is the quadratic curve through the physical images of its nodes.
@@ -209,7 +225,7 @@ def segment_curve(el, xc, nodes, s, cell_ids=None):
     return xi, x, np.einsum("pa,kai->kpi", dS, X)
 
 
-def not_invertible(failed, cell_ids=None):
+def not_invertible(failed: BoolArray, cell_ids: IntArray | None = None) -> GeometryError:
     """The error for cells ``failed (k,)`` whose map could not be inverted at an interface
     or sub-cell point (a cell so distorted that Newton's method does not converge)."""
     c = int(np.nonzero(failed)[0][0])
@@ -218,7 +234,8 @@ def not_invertible(failed, cell_ids=None):
                          f"distorted for its quadratic map to be inverted): refine the mesh there")
 
 
-def orient(el, phi_cell, xi, where):
+def orient(el: Element, phi_cell: FloatArray, xi: FloatArray,
+           where: IntArray) -> tuple[FloatArray, IntArray]:
     """Order P1, P2 so that the + side is on the left of P1 -> P2."""
     p1, p2 = xi[:, 0], xi[:, 1]
     g = grad_phi_ref(el, phi_cell, 0.5 * (p1 + p2))
@@ -231,7 +248,7 @@ def orient(el, phi_cell, xi, where):
 
 
 # -- sub-triangles -------------------------------------------------------------
-def _side_paths(el, t1, t2):
+def _side_paths(el: Element, t1: FloatArray, t2: FloatArray) -> tuple[IntArray, IntArray]:
     """Boundary corners of each side, in walking order.
 
     Minus side: from P1 counter-clockwise to P2; plus side: from P2 to P1.
@@ -240,7 +257,7 @@ def _side_paths(el, t1, t2):
     nv = el.nv
     corners = np.arange(nv)[None, :]
 
-    def between(ts, te):
+    def between(ts: FloatArray, te: FloatArray) -> IntArray:
         span = np.mod(te - ts, nv)[:, None]
         off = np.mod(corners - ts[:, None], nv)
         inside = (off > 1e-12) & (off < span - 1e-12)
@@ -251,7 +268,9 @@ def _side_paths(el, t1, t2):
     return between(t1, t2), between(t2, t1)
 
 
-def _ring(el, seg, halves, path_corners, start, end, s_start, s_end):
+def _ring(el: Element, seg: FloatArray, halves: FloatArray, path_corners: IntArray,
+          start: FloatArray, end: FloatArray, s_start: float,
+          s_end: float) -> tuple[FloatArray, FloatArray, IntArray]:
     """The boundary ring of one side: start, corners..., end, P3.
 
     Returns points ``(k, L, 2)``, the mid-point of each ring edge ``(k, L, 2)``
@@ -285,7 +304,7 @@ def _ring(el, seg, halves, path_corners, start, end, s_start, s_end):
     return pts, mids, L
 
 
-def _fans(pts, mids, L):
+def _fans(pts: FloatArray, mids: FloatArray, L: IntArray) -> tuple[FloatArray, BoolArray]:
     """Every fan triangulation of the rings: ``(k, C, T, 6, 2)`` and validity ``(k, C, T)``.
 
     Fan ``c`` joins ring point c to every ring edge not incident to it; its
@@ -302,7 +321,7 @@ def _fans(pts, mids, L):
     valid = (c[None] < Lk) & (d[None] <= Lk - 2)
     rows = np.arange(k)[:, None, None]
 
-    def take(arr, idx):
+    def take(arr: FloatArray, idx: IntArray) -> FloatArray:
         return arr[rows, idx]
 
     A, B, C = take(pts, ia), take(pts, ib), take(pts, ic)
@@ -319,7 +338,7 @@ def _fans(pts, mids, L):
 FAN_TIE = 1e-9
 
 
-def _best_fan(tri, valid):
+def _best_fan(tri: FloatArray, valid: BoolArray) -> tuple[FloatArray, BoolArray, FloatArray]:
     """Pick, per cell, the fan whose worst sub-triangle is the least distorted
     (the first in ring order among those within ``FAN_TIE`` of the best)."""
     zeta = TRI6.check_points
@@ -334,7 +353,8 @@ def _best_fan(tri, valid):
     return tri[rows, best], valid[rows, best], quality[rows, best]
 
 
-def subcells(el, seg, where, halves):
+def subcells(el: Element, seg: FloatArray, where: IntArray,
+             halves: FloatArray) -> tuple[FloatArray, IntArray, FloatArray]:
     """Sub-triangles of both sides of cut cells with segments ``seg (k, 3, 2)``;
     ``halves (k, 2, 2)``: the segments' points at s = -1/2 and +1/2 (mid-nodes of
     the fan triangles' interface edges).
@@ -357,7 +377,7 @@ def subcells(el, seg, where, halves):
 TRI6 = element("TRIA6")
 
 
-def subcell_jacobians(nodes, zeta):
+def subcell_jacobians(nodes: FloatArray, zeta: FloatArray) -> FloatArray:
     """det of the maps reference triangle -> parent reference coordinates at ``zeta``:
     ``nodes (..., 6, 2)`` -> ``(..., q)``."""
     J = np.tensordot(nodes, TRI6.dshape(zeta), axes=([-2], [1]))             # (..., 2, q, 2), one BLAS call
@@ -369,7 +389,7 @@ def subcell_jacobians(nodes, zeta):
 FOLD_AREA = 1e-4
 
 
-def _lattice(m):
+def _lattice(m: int) -> FloatArray:
     """Centroids of the m^2 sub-triangles of the reference triangle split m times per side."""
     i, j = np.meshgrid(np.arange(m), np.arange(m), indexing="ij")
     up = np.stack([i + 1 / 3, j + 1 / 3], axis=-1)[i + j <= m - 1]
@@ -377,7 +397,7 @@ def _lattice(m):
     return np.r_[up, down] / m
 
 
-def folded_area(nodes, m=24):
+def folded_area(nodes: FloatArray, m: int = 24) -> tuple[FloatArray, FloatArray]:
     """Reference areas (parent coordinates) of sub-triangles ``nodes (..., 6, 2)``:
     ``(signed, folded)``, the integral of det and of max(-det, 0), each ``(...)``,
     estimated on the centroids of an ``m x m`` split of the reference triangle."""
@@ -386,7 +406,7 @@ def folded_area(nodes, m=24):
     return det.sum(axis=-1), -np.minimum(det, 0.0).sum(axis=-1)
 
 
-def invalid_subcells(nodes, side, parent_area):
+def invalid_subcells(nodes: FloatArray, side: IntArray, parent_area: float) -> BoolArray:
     """Cells whose sub-triangles do not map one-to-one: ``(k,)`` bool.
 
     A sub-triangle of zero area (three points on one straight edge, when the
@@ -411,13 +431,15 @@ def invalid_subcells(nodes, side, parent_area):
     return bad.any(axis=1)
 
 
-def too_curved(cell_id):
+def too_curved(cell_id: int) -> GeometryError:
+    """The error for a cut cell whose sub-cells cannot follow the interface."""
     return GeometryError(f"level set: the interface is too curved in cell {cell_id} to be "
                          f"followed by quadratic sub-cells: refine the mesh there")
 
 
 # -- driver ----------------------------------------------------------------------
-def cut_cells(mesh, phi, side):
+def cut_cells(mesh: LocalMesh, phi: FloatArray,
+              side: IntArray) -> tuple[Segments, SubCells, BoolArray]:
     """Segments and sub-cells of the cut cells (``side == 0``), and the mask
     ``(k,)`` of those whose sub-cells are invalid (:func:`invalid_subcells`)."""
     el = mesh.element
@@ -444,7 +466,7 @@ def cut_cells(mesh, phi, side):
     return Segments(cells, seg, where), SubCells(cells, nodes, sub_side), bad
 
 
-def edge_segments(mesh, phi, side):
+def edge_segments(mesh: LocalMesh, phi: FloatArray, side: IntArray) -> Segments:
     """Interface segments lying on cell edges (LN = 0 at the edge's three nodes).
 
     Each interior such edge is owned by its cell on the - side; edges on the
@@ -469,6 +491,6 @@ def edge_segments(mesh, phi, side):
     return Segments(cells, nodes, where)
 
 
-def _boundary_mid_nodes(mesh):
+def _boundary_mid_nodes(mesh: LocalMesh) -> IntArray:
     be = mesh.boundary_edges()
     return be[:, 2] if len(be) else np.zeros(0, dtype=np.int64)

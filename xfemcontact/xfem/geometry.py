@@ -20,53 +20,67 @@ it, so only supports thinner than that (ratios below about 1e-12) are dropped;
 MUMPS' own scaling copes with the remaining small ratios (the condition
 estimates in the tests show it).
 """
+from __future__ import annotations
+
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from xfemcontact.mesh.plex import reduce_nodes
 from xfemcontact.xfem import cut, integration, levelset
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from xfemcontact.mesh.plex import LocalMesh
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+
 DROP_RATIO = 1e-12
 
 
 @dataclass
 class Geometry:
-    phi: np.ndarray            # (n,) LN at local nodes after readjustment
-    readjustment: object       # levelset.Readjustment
-    cell_side: np.ndarray      # (nc,) -1 / +1, 0 for cut cells
-    node_side: np.ndarray      # (n,) H(x_j): +1 if LN >= 0 else -1
-    cut_segments: object       # cut.Segments of cut cells
-    edge_segments: object      # cut.Segments lying on cell edges
-    subcells: object           # cut.SubCells of cut cells
-    enriched: np.ndarray       # (n,) bool, carries H1X, H1Y
-    ratio: np.ndarray          # (n,) support ratio r_j (1 for non-enriched nodes)
-    dropped: int               # nodes whose Heaviside dofs the conditioning rule removed
-    cut_points: object = field(default=None, repr=False)  # integration.CellPoints of cut cells, cached
+    """The X-FEM geometry of the local mesh (see the module documentation)."""
+
+    phi: FloatArray                     # (n,) LN at local nodes after readjustment
+    readjustment: levelset.Readjustment
+    cell_side: IntArray                 # (nc,) -1 / +1, 0 for cut cells
+    node_side: IntArray                 # (n,) H(x_j): +1 if LN >= 0 else -1
+    cut_segments: cut.Segments          # of cut cells
+    edge_segments: cut.Segments         # lying on cell edges
+    subcells: cut.SubCells              # of cut cells
+    enriched: BoolArray                 # (n,) bool, carries H1X, H1Y
+    ratio: FloatArray                   # (n,) support ratio r_j (1 for non-enriched nodes)
+    dropped: int                        # nodes whose Heaviside dofs the conditioning rule removed
+    cut_points: integration.CellPoints | None = field(default=None, repr=False)  # of cut cells, cached
 
     @property
-    def cut_cells(self):
+    def cut_cells(self) -> IntArray:
         return self.subcells.cells
 
-    def segments(self):
+    def segments(self) -> cut.Segments:
         """All interface segments (cut cells first, then edge segments)."""
         a, b = self.cut_segments, self.edge_segments
         return cut.Segments(np.r_[a.cells, b.cells], np.concatenate([a.nodes, b.nodes]),
                             np.concatenate([a.where, b.where]))
 
-    def enriched_cells(self, mesh):
+    def enriched_cells(self, mesh: LocalMesh) -> IntArray:
         """Cells where some enriched node's shifted Heaviside is not zero."""
         nodes = mesh.cell_nodes
         opp = self.enriched[nodes] & (self.node_side[nodes] != self.cell_side[:, None])
         return np.nonzero((self.cell_side == 0) | opp.any(axis=1))[0]
 
-    def plain_cells(self, mesh):
+    def plain_cells(self, mesh: LocalMesh) -> IntArray:
         mask = np.ones(len(mesh.cells), dtype=bool)
         mask[self.enriched_cells(mesh)] = False
         return np.nonzero(mask)[0]
 
 
-def build(mesh, phi):
+def build(mesh: LocalMesh, phi: FloatArray) -> Geometry:
     """Readjust LN, classify and cut the cells, select the enriched nodes."""
     phi, info, side, segs, subs = _cut(mesh, phi)
     esegs = cut.edge_segments(mesh, phi, side)
@@ -82,11 +96,13 @@ def build(mesh, phi):
     return geo
 
 
-def _cut(mesh, phi_in):
+def _cut(mesh: LocalMesh, phi_in: FloatArray) -> tuple[FloatArray, levelset.Readjustment, IntArray,
+                                                       cut.Segments, cut.SubCells]:
     """Readjust, classify and cut.  Cut cells whose sub-cells cannot follow the
     interface along an edge it touches or nearly touches are cut again with the
     zero line pushed off their sagging edges (readjustment rule 3; collective)."""
-    def attempt(push_off=None):
+    def attempt(push_off: BoolArray | None = None) -> tuple[
+            FloatArray, levelset.Readjustment, IntArray, cut.Segments, cut.SubCells, BoolArray]:
         phi, info = levelset.readjust(mesh, phi_in, push_off)
         side = levelset.classify(mesh, phi)
         return (phi, info, side) + cut.cut_cells(mesh, phi, side)
@@ -102,7 +118,7 @@ def _cut(mesh, phi_in):
     return phi, info, side, segs, subs
 
 
-def _opposite_in_support(mesh, side, node_side):
+def _opposite_in_support(mesh: LocalMesh, side: IntArray, node_side: IntArray) -> BoolArray:
     """Nodes whose support has a part on the side opposite to them."""
     nodes = mesh.cell_nodes
     n = len(mesh.x)
@@ -112,7 +128,7 @@ def _opposite_in_support(mesh, side, node_side):
     return np.where(node_side > 0, count[:, 0] > 0, count[:, 1] > 0)
 
 
-def cell_points(mesh, geo, cells):
+def cell_points(mesh: LocalMesh, geo: Geometry, cells: IntArray) -> list[integration.CellPoints]:
     """Quadrature of ``cells``: sub-cells for cut ones, the standard rule otherwise.
 
     Returns a list of :class:`integration.CellPoints` (cut cells, uncut cells).
@@ -129,7 +145,7 @@ def cell_points(mesh, geo, cells):
     return out
 
 
-def _cut_points(mesh, geo):
+def _cut_points(mesh: LocalMesh, geo: Geometry) -> integration.CellPoints:
     """Sub-cell quadrature of all cut cells, computed once per geometry (assembly,
     support ratios and post-processing all integrate over the same sub-cells)."""
     if geo.cut_points is None:
@@ -139,7 +155,7 @@ def _cut_points(mesh, geo):
     return geo.cut_points
 
 
-def support_ratio(mesh, geo):
+def support_ratio(mesh: LocalMesh, geo: Geometry) -> FloatArray:
     """r_j for every node (see the module docstring); 1 where not enriched."""
     n = len(mesh.x)
     cells = geo.enriched_cells(mesh)

@@ -4,13 +4,22 @@ Points are returned in the parent cell's reference coordinates ``xi`` (where the
 parent's shape functions are evaluated) together with physical positions and
 weights that include every Jacobian (m^2 for areas, m for lengths).
 """
+from __future__ import annotations
+
 from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from xfemcontact.fem.elements import affine_cells, physical_gradients
+from xfemcontact.fem.elements import Element, affine_cells, physical_gradients
 from xfemcontact.fem.quadrature import gauss_segment, gauss_triangle
-from xfemcontact.xfem.cut import TRI6, not_invertible, segment_curve, subcell_jacobians
+from xfemcontact.xfem.cut import TRI6, Segments, SubCells, not_invertible, segment_curve, subcell_jacobians
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
 
 #: polynomial degree of the rule on each sub-triangle: exact for the stiffness
 #: of affine parents (TRIA6: 2 + 2 x 2, QUAD8 parallelograms: 4 + 2 x 2 ... + det)
@@ -21,20 +30,21 @@ SUBCELL_DEGREE = {"TRIA6": 6, "QUAD8": 8}
 class CellPoints:
     """Quadrature points of a batch of cells, padded to ``nq`` per cell."""
 
-    cells: np.ndarray    # (k,) local cell indices
-    xi: np.ndarray       # (k, nq, 2) parent reference coordinates
-    x: np.ndarray        # (k, nq, 2) physical coordinates, m
-    w: np.ndarray        # (k, nq) weights, m^2 (0 on padding)
-    side: np.ndarray     # (k, nq) -1 / +1 (0 on padding)
-    dNdx: np.ndarray     # (k, nq, nn, 2) physical gradients of the parent's shape functions
-    N: np.ndarray        # (k, nq, nn) parent shape functions
+    cells: IntArray      # (k,) local cell indices
+    xi: FloatArray       # (k, nq, 2) parent reference coordinates
+    x: FloatArray        # (k, nq, 2) physical coordinates, m
+    w: FloatArray        # (k, nq) weights, m^2 (0 on padding)
+    side: IntArray | FloatArray     # (k, nq) -1 / +1 (0 on padding)
+    dNdx: FloatArray     # (k, nq, nn, 2) physical gradients of the parent's shape functions
+    N: FloatArray        # (k, nq, nn) parent shape functions
 
-    def take(self, rows):
+    def take(self, rows: IntArray) -> CellPoints:
         """The points of the cells at positions ``rows``."""
         return CellPoints(*(getattr(self, f.name)[rows] for f in fields(self)))
 
 
-def _parent_maps(el, xc, xi):
+def _parent_maps(el: Element, xc: FloatArray,
+                 xi: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Physical points, gradients and det J of parents ``xc (k, nn, 2)`` at ``xi``.
 
     ``xi``: ``(k, nq, 2)`` per cell, or ``(nq, 2)`` the same for every cell (the
@@ -57,7 +67,8 @@ def _parent_maps(el, xc, xi):
     return N, x, dNdx, det
 
 
-def subcell_points(el, xc, sub, cell_ids=None):
+def subcell_points(el: Element, xc: FloatArray, sub: SubCells,
+                   cell_ids: IntArray | None = None) -> CellPoints:
     """Quadrature of the sub-triangles ``sub`` (SubCells) of cells with coordinates ``xc``.
 
     Each sub-triangle is integrated as the physical 6-node triangle through the
@@ -87,11 +98,12 @@ def subcell_points(el, xc, sub, cell_ids=None):
     return CellPoints(sub.cells, xi, x, w, side, dNdx, N)
 
 
-def _centre(el):
+def _centre(el: Element) -> FloatArray:
     return el.ref_nodes[: el.nv].mean(axis=0)
 
 
-def cell_points(el, xc, cells, side, degree=4):
+def cell_points(el: Element, xc: FloatArray, cells: IntArray, side: IntArray | FloatArray,
+                degree: int = 4) -> CellPoints:
     """Standard quadrature of whole (uncut) cells, all on side ``side (k,)``."""
     q, wq = el.quadrature(degree)
     N, x, dNdx, det = _parent_maps(el, xc, q)
@@ -103,16 +115,17 @@ def cell_points(el, xc, cells, side, degree=4):
 class SegmentPoints:
     """Gauss points of interface segments (one segment per owning cell)."""
 
-    cells: np.ndarray    # (k,)
-    xi: np.ndarray       # (k, ng, 2) parent reference coordinates
-    s: np.ndarray        # (ng,) abscissae on the segment
-    x: np.ndarray        # (k, ng, 2) physical points, m
-    w: np.ndarray        # (k, ng) length weights, m
-    normal: np.ndarray   # (k, ng, 2) unit normal, from - to + (grad LN direction)
-    tangent: np.ndarray  # (k, ng, 2) unit tangent with non-negative x-component
+    cells: IntArray      # (k,)
+    xi: FloatArray       # (k, ng, 2) parent reference coordinates
+    s: FloatArray        # (ng,) abscissae on the segment
+    x: FloatArray        # (k, ng, 2) physical points, m
+    w: FloatArray        # (k, ng) length weights, m
+    normal: FloatArray   # (k, ng, 2) unit normal, from - to + (grad LN direction)
+    tangent: FloatArray  # (k, ng, 2) unit tangent with non-negative x-component
 
 
-def segment_points(el, xc, seg, order, cell_ids=None):
+def segment_points(el: Element, xc: FloatArray, seg: Segments, order: int,
+                   cell_ids: IntArray | None = None) -> SegmentPoints:
     """Gauss-Legendre points (``order`` of them) on segments ``seg`` (cut.Segments),
     on the physical quadratic curve of each segment (:func:`cut.segment_curve`)."""
     s, ws = gauss_segment(order)
@@ -123,10 +136,17 @@ def segment_points(el, xc, seg, order, cell_ids=None):
     return SegmentPoints(seg.cells, xi, s, x, ws[None] * ds, n, tangent_of(n))
 
 
-def tangent_of(n):
-    """code_aster's 2-D tangent: unit, non-negative x-component; e_y when n = +-e_x."""
+#: |n_y| below this is a vertical interface (normals computed from curved segments carry
+#: round-off of a few 1e-14: with a tighter test the tangent of a vertical interface
+#: flipped between +e_y and -e_y from one point to the next)
+VERTICAL = 1e-10
+
+
+def tangent_of(n: FloatArray) -> FloatArray:
+    """code_aster's 2-D tangent: unit, non-negative x-component; e_y when n = +-e_x
+    (to ``VERTICAL``)."""
     sgn = np.where(n[..., 1] >= 0, 1.0, -1.0)
     t = np.stack([sgn * n[..., 1], -sgn * n[..., 0]], axis=-1)
-    vertical = np.abs(n[..., 1]) <= 1e-14
+    vertical = np.abs(n[..., 1]) <= VERTICAL
     t[vertical] = [0.0, 1.0]
     return t

@@ -37,7 +37,10 @@ side of its non-zero values (``+1`` or ``-1``); a cell whose nodes are all zero
 is an error.  A cell with nodes of one sign but the other sign inside it (a
 closed interface smaller than the cell) is an error asking for a finer mesh.
 """
+from __future__ import annotations
+
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -45,13 +48,27 @@ from xfemcontact.errors import GeometryError
 from xfemcontact.fem.elements import Seg3
 from xfemcontact.mesh.plex import reduce_nodes
 
+if TYPE_CHECKING:
+    from mpi4py import MPI
+    from numpy.typing import ArrayLike, NDArray
+
+    from xfemcontact.mesh.plex import LocalMesh
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+
 ROUNDOFF = 1e-12
 FIT_TO_VERTEX = 1e-6
 VERTEX_ROOT = 1e-10       # reference-abscissa distance at which an edge root is its vertex
 
 
-def nodal_values(mesh, interface, node_field=None):
-    """LN at every local node, scaled by a power of two (:func:`normalised`)."""
+def nodal_values(mesh: LocalMesh, interface: Any, node_field: ArrayLike | None = None) -> FloatArray:
+    """LN at every local node, scaled by a power of two (:func:`normalised`).
+
+    ``interface``: the case's :class:`~xfemcontact.case.load.Interface` (not imported
+    here: the case package imports the contact laws, which use this room);
+    ``node_field (n,)``: LN at the local nodes when it has no level-set formula."""
     if interface.level_set is not None:
         phi = interface.level_set(x=mesh.x[:, 0], y=mesh.x[:, 1])
     else:
@@ -59,7 +76,7 @@ def nodal_values(mesh, interface, node_field=None):
     return normalised(phi, mesh.comm.tompi4py() if mesh.comm.size > 1 else None)
 
 
-def normalised(phi, comm=None):
+def normalised(phi: ArrayLike, comm: MPI.Comm | None = None) -> FloatArray:
     """``phi`` times the power of two that brings its largest magnitude (over all
     processes of the mpi4py ``comm``) into [0.5, 1).  Exact: the zero line and every
     decision of the readjustment (all relative) are unchanged, but a level set of
@@ -76,7 +93,7 @@ def normalised(phi, comm=None):
     return np.ldexp(phi, -np.frexp(top)[1])
 
 
-def edge_roots(phi_a, phi_b, phi_m):
+def edge_roots(phi_a: FloatArray, phi_b: FloatArray, phi_m: FloatArray) -> FloatArray:
     """Roots in the open interval (-1, 1) of the SEG3 quadratic through
     (-1, phi_a), (1, phi_b), (0, phi_m).  Returns ``(k, 2)``: the roots inside,
     sorted, first; NaN after them (none, or one root inside).
@@ -108,7 +125,7 @@ def edge_roots(phi_a, phi_b, phi_m):
     return np.sort(roots, axis=1)                 # NaN sorts last
 
 
-def edge_crossing(phi_a, phi_b, phi_m):
+def edge_crossing(phi_a: FloatArray, phi_b: FloatArray, phi_m: FloatArray) -> FloatArray:
     """Where LN crosses zero inside SEG3 edges whose vertices have strictly opposite
     signs: the reference abscissa in (-1, 1) of the edge quadratic's one root there,
     NaN on the other edges.  The cut cells (:func:`xfemcontact.xfem.cut.intersection_points`)
@@ -119,6 +136,7 @@ def edge_crossing(phi_a, phi_b, phi_m):
 
 @dataclass
 class Readjustment:
+    """What the readjustment rules changed, counted on the owned nodes."""
     roundoff: int = 0
     fitted_vertices: int = 0
     lifted_edges: int = 0
@@ -126,14 +144,14 @@ class Readjustment:
     pushed_off: int = 0      # lifted edges whose zero line was pushed off the edge
 
 
-def _mesh_edges(mesh):
+def _mesh_edges(mesh: LocalMesh) -> IntArray:
     """Unique edges of the local cells: ``(k, 3)`` local nodes (a, b, mid)."""
     e = mesh.cell_nodes[:, mesh.element.edges].reshape(-1, 3)
     _, first = np.unique(e[:, 2], return_index=True)
     return e[first]
 
 
-def cell_max_at_nodes(cell_nodes, values):
+def cell_max_at_nodes(cell_nodes: IntArray, values: FloatArray) -> FloatArray:
     """Per node, the largest of ``values`` over the nodes of the cells holding it
     (0 for nodes of no cell).  ``cell_nodes (nc, nn)``, ``values (n,)`` >= 0.
 
@@ -156,7 +174,8 @@ def cell_max_at_nodes(cell_nodes, values):
     return out
 
 
-def readjust(mesh, phi, push_off=None):
+def readjust(mesh: LocalMesh, phi: ArrayLike,
+             push_off: BoolArray | None = None) -> tuple[FloatArray, Readjustment]:
     """Apply the readjustment rules; returns ``(phi, Readjustment)``.
 
     ``push_off``: optional ``(n,)`` bool, mid-nodes whose edge gets its zero line
@@ -198,7 +217,8 @@ def readjust(mesh, phi, push_off=None):
     return phi, info
 
 
-def _lift_double_crossings(pa, pb, pm, push_off):
+def _lift_double_crossings(pa: FloatArray, pb: FloatArray, pm: FloatArray,
+                           push_off: BoolArray) -> tuple[FloatArray, BoolArray]:
     """Mid-node values making each edge quadratic cross zero at most once.
 
     ``push_off (k,)`` bool: on these edges, if their vertices have one sign and
@@ -224,7 +244,7 @@ def _lift_double_crossings(pa, pb, pm, push_off):
     return np.where(lifted, s * c, pm), lifted
 
 
-def classify(mesh, phi):
+def classify(mesh: LocalMesh, phi: FloatArray) -> IntArray:
     """Side of every local cell: -1, +1, or 0 for cut cells."""
     pc = phi[mesh.cell_nodes]
     pos = (pc > 0).any(axis=1)
@@ -240,7 +260,7 @@ def classify(mesh, phi):
     return side
 
 
-def _check_islands(mesh, phi, side):
+def _check_islands(mesh: LocalMesh, phi: FloatArray, side: IntArray) -> None:
     """Cells with nodes of one sign must not contain the other sign."""
     el = mesh.element
     q, _ = el.quadrature(4)
@@ -257,6 +277,6 @@ def _check_islands(mesh, phi, side):
                             f"the cell: refine the mesh there")
 
 
-def edge_point(xe, s):
+def edge_point(xe: FloatArray, s: ArrayLike) -> FloatArray:
     """Physical point at reference abscissa ``s`` of SEG3 edges ``xe (k, 3, 2)``."""
     return np.einsum("ka,kai->ki", Seg3.shape(s), xe)

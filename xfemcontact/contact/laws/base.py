@@ -15,7 +15,14 @@ A law is an object with a few facts the rest of the package asks about
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from xfemcontact.contact.problem import InterfaceProblem, InterfaceSetup
+    from xfemcontact.contact.space import MultiplierSpace
+    from xfemcontact.mesh.plex import LocalMesh
+    from xfemcontact.xfem.cut import Segments
+    from xfemcontact.xfem.integration import SegmentPoints
 
 
 class InterfaceLaw:
@@ -28,11 +35,16 @@ class InterfaceLaw:
     separate_bodies: bool = False
     case_tables: tuple[str, ...] = ()
 
-    def multiplier_space(self, mesh, segments, points, case):
-        """The multiplier space of the interface (None: no multipliers)."""
+    def multiplier_space(self, mesh: LocalMesh, segments: Segments, points: SegmentPoints,
+                         case: Any) -> MultiplierSpace | None:
+        """The multiplier space of the interface (None: no multipliers).
+
+        ``points``: the Gauss points of ``segments``; ``case``: the
+        :class:`~xfemcontact.case.load.Case` (not imported: the case package
+        imports the laws)."""
         return None
 
-    def problem(self, setup: Any) -> Any:
+    def problem(self, setup: InterfaceSetup) -> InterfaceProblem:
         """The :class:`~xfemcontact.contact.problem.InterfaceProblem` of the interface
         for ``setup`` (a :class:`~xfemcontact.contact.problem.InterfaceSetup`)."""
         raise NotImplementedError

@@ -10,22 +10,36 @@ interface Gauss points (:mod:`xfemcontact.contact.gauss_point`,
 status and threshold loops of :mod:`xfemcontact.solver.loops`.  Reads the
 ``[contact]`` table of the case.
 """
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
 from xfemcontact.contact.laws.base import InterfaceLaw
+
+if TYPE_CHECKING:
+    from xfemcontact.contact.problem import InterfaceProblem, InterfaceSetup
+    from xfemcontact.contact.space import MultiplierSpace
+    from xfemcontact.mesh.plex import LocalMesh
+    from xfemcontact.xfem.cut import Segments
+    from xfemcontact.xfem.integration import SegmentPoints
 
 
 class Contact(InterfaceLaw):
+    """Unilateral contact with Coulomb friction, multipliers on the cut cells' vertices."""
+
     name = "contact"
     doc = "unilateral contact, with Coulomb friction if [contact] frottement = COULOMB"
     multipliers = True
     case_tables = ("contact",)
 
-    def multiplier_space(self, mesh, segments, points, case):
+    def multiplier_space(self, mesh: LocalMesh, segments: Segments, points: SegmentPoints,
+                         case: Any) -> MultiplierSpace:
         from xfemcontact.contact import space
 
         return space.build(mesh, segments, case.contact.algo_lagr,
                            mesh.element.shape_linear(points.xi), points.w)
 
-    def problem(self, setup):
+    def problem(self, setup: InterfaceSetup) -> InterfaceProblem:
         if setup.case.contact.integration == "GAUSS":
             from xfemcontact.contact.gauss_problem import GaussContactProblem
 

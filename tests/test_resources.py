@@ -1,0 +1,118 @@
+"""Memory estimate and refusal of cases that cannot fit; phase memory in results.json;
+the deformed-mesh image; the plot helper's fallback.  (No test looks at wall times.)"""
+import numpy as np
+import pytest
+
+from conftest import CASES, results, run_cli, write_case
+from xfemcontact import resources
+from xfemcontact.post import plots
+
+SSNV509A = (CASES / "ssnv509a.toml").read_text()
+
+
+def with_rectangle(nx, cell="QUAD8"):
+    head, tail = SSNV509A.split("[mesh]", 1)
+    tail = tail.split("\n", 2)[2]
+    return (head + f'[mesh]\nrectangle = {{ nx = {nx}, ny = {nx}, x = [0.0, 10.0], y = [0.0, 10.0], '
+            f'cell = "{cell}" }}\n' + tail)
+
+
+def test_estimate_grows_with_the_mesh_and_splits_over_processes():
+    small, large = resources.estimate("QUAD8", 320 ** 2), resources.estimate("QUAD8", 1000 ** 2)
+    assert small.dofs == 2 * 3 * 320 ** 2
+    assert large.factor_entries > 9 * small.factor_entries            # faster than the dofs
+    two = resources.estimate("QUAD8", 1000 ** 2, nprocs=2)
+    assert two.peak_mb < 0.7 * large.peak_mb and two.total_mb > large.total_mb
+    # the N = 1000 runs of the bench: 15.2 GB on one process, 9.4 GB per process on two
+    assert 15180 < large.peak_mb < 1.1 * 15180
+    assert 9364 < two.peak_mb < 1.1 * 9364
+
+
+def test_rectangle_spec_with_refinement():
+    class Spec:
+        rectangle = {"nx": 10, "ny": 20, "cell": "TRIA6"}
+        refine = 2
+    assert resources.rectangle_cells(Spec) == ("TRIA6", 10 * 20 * 2 * 16)
+    Spec.rectangle = None
+    assert resources.rectangle_cells(Spec) is None
+
+
+def test_a_rectangle_that_cannot_fit_is_refused_at_once(tmp_path):
+    case = write_case(tmp_path, with_rectangle(10000))
+    proc = run_cli(["run", case, "-o", tmp_path / "out"], timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "mesh.rectangle" in lines[0]
+    assert "-xfc_memory_limit" in lines[0] and "Traceback" not in proc.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_memory_limit_option(tmp_path):
+    case = write_case(tmp_path, with_rectangle(20))
+    proc = run_cli(["run", case, "-o", tmp_path / "small", "-xfc_memory_limit", "10"], timeout=120)
+    assert proc.returncode == 2 and "10 MB available (-xfc_memory_limit)" in proc.stderr
+    proc = run_cli(["run", case, "-o", tmp_path / "off", "-xfc_memory_limit", "0"], timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    r = results(tmp_path / "off")
+    assert r["resources"]["cells"] == 400 and r["resources"]["limit_mb"] is None
+    phases = r["memory"]["phases"]
+    for name in ("mesh", "layout", "assembly", "solve", "output"):
+        rss, peak = phases[name]["rss_mb"][0], phases[name]["peak_mb"][0]
+        assert 0 < rss <= peak <= max(r["memory"]["peak_mb_per_process"])
+    assert {"output:postmesh", "output:xdmf"} <= set(r["timing_steps"])
+
+
+def test_rasterise_covers_each_pixel_once():
+    # a 10 x 10 square split along a diagonal, in both orientations
+    tri = np.array([[[0, 0], [10, 0], [10, 10]], [[0, 0], [0, 10], [10, 10]]], float)
+    img = plots.rasterise(tri, np.array([0, 1]), 11, 11)
+    assert (img >= 0).all()
+    assert (img == 0).sum() + (img == 1).sum() == 121
+    outside = plots.rasterise(tri + 20.0, np.array([0, 1]), 11, 11)
+    assert (outside == -1).all()
+
+
+def test_deformed_image_of_a_large_mesh():
+    n = 90                                   # 8100 quadrangles: drawn as an image
+    xs = np.linspace(0.0, 1.0, n + 1)
+    X, Y = np.meshgrid(xs, xs)
+    pts = np.c_[X.ravel(), Y.ravel()]
+    k = np.arange(n)
+    ll = (k[None, :] + (n + 1) * k[:, None]).ravel()
+    quads = np.c_[ll, ll + 1, ll + n + 2, ll + n + 1]
+    conn = np.c_[quads, quads]               # mid-nodes on the vertices: straight cells
+    values = np.linspace(-1.0, 1.0, len(conn))
+    pd = {"DX": np.zeros(len(pts)), "DY": np.zeros(len(pts)), "NFISSU": np.zeros(len(pts), int)}
+    d = plots.deformed_data(pts, [("quad8", conn)], pd, {"SIYY": [values]})
+    assert "image" in d and d["lines"] is not None            # 8 pixels a cell: lines drawn
+    img = d["image"]
+    inside = ~np.isnan(img)
+    assert inside.mean() > 0.99
+    assert img[inside].min() >= -1.0 and img[inside].max() <= 1.0
+    fig = plots.draw_deformed(d, "test")
+    assert "8100 cells drawn as an image" in fig._suptitle.get_text()
+
+
+def test_plot_helper_that_is_not_running_refuses_jobs(tmp_path):
+    from xfemcontact.output.plotter import PlotHelper
+
+    helper = PlotHelper()
+    assert not helper.running
+    assert helper.send([("plot_x.png", "multipliers_figure", ())], tmp_path) is False
+    assert helper.finish() == []
+
+
+@pytest.mark.parametrize("spare", [True, False])
+def test_plots_are_written_with_and_without_the_helper(tmp_path, monkeypatch, spare):
+    from xfemcontact.output import plotter
+
+    monkeypatch.setattr(plotter, "spare_core", lambda size: spare)
+    case = write_case(tmp_path, SSNV509A)
+    code = None
+    from xfemcontact.cli import main
+    code = main(["run", str(case), "-o", str(tmp_path / "out")])
+    assert code == 0
+    for name in plots.ORDER:
+        assert (tmp_path / "out" / name).stat().st_size > 10_000
+    steps = results(tmp_path / "out")["timing_steps"]
+    assert any(k.startswith("plot_helper_cpu:") for k in steps) == spare

@@ -1,0 +1,243 @@
+"""The memory a case needs, estimated from its mesh before the mesh is built, and the
+refusal of a case that cannot fit.
+
+    est = estimate("QUAD8", 1_000_000, nprocs=1)    # 1000 x 1000 QUAD8
+    est.peak_mb                                      # per process, MB
+    check_case(case, comm)                           # CaseError (exit 2) if it cannot fit
+
+The estimate follows the data: cells -> nodes -> dofs (two per node) -> nonzeros of
+the upper triangle of the matrix -> MUMPS factor entries (nested-dissection
+growth, about ``n log^1.5 n`` with PORD, the ordering Debian's MUMPS uses) -> peak
+resident memory of a process, each step with a coefficient fitted to the runs of
+``bench/run_series.py`` (SSNV509 geometry, N = 160 .. 1000; see README,
+*Performance*).  It is meant to refuse what cannot fit before anything large is
+allocated, not to be exact: it is within about 10 % of the measured peaks of
+those runs, and the limit it is compared with keeps a margin.
+
+The limit is the memory this machine can give the run: the smallest of
+``MemAvailable`` (/proc/meminfo), what the cgroup of the process still allows
+(memory.max - memory.current, cgroup v2, or v1's limit), and the address-space
+limit of a process (``ulimit -v``, compared with the estimated virtual size of a
+process, which is larger than its resident size).  ``-xfc_memory_limit MB``
+replaces it (``0``: no check).
+
+Where it is called: :func:`check_case` before a generated rectangle is built (from
+its spec alone: a 10000 x 10000 rectangle is refused before a byte of it exists),
+:func:`check_cells` in :func:`xfemcontact.mesh.plex.load` for every mesh before the
+DMPlex is built, and in :func:`xfemcontact.mesh.refine.refine_uniform` before a
+mesh read from a file is refined.
+"""
+from dataclasses import asdict, dataclass
+
+from xfemcontact.errors import CaseError
+
+#: nodes per cell of large meshes (N x N rectangles: QUAD8 3 N^2 + 4 N + 1 nodes for
+#: N^2 cells, TRIA6 4 N^2 + 4 N + 1 for 2 N^2)
+NODES_PER_CELL = {"QUAD8": 3.0, "TRIA6": 2.0}
+#: nonzeros of the matrix's upper triangle per dof (measured at N = 320, bench)
+NNZ_PER_DOF = {"QUAD8": 13.1, "TRIA6": 12.2}
+#: MUMPS factor entries (INFOG(29)) at a reference size and their growth with the dofs
+#: (fitted to N = 160 .. 640: ``F = F_ref (n / n_ref) ** FACTOR_EXPONENT``, about n log^1.5 n)
+FACTOR_REFERENCE = {"QUAD8": (2469238, 412824463), "TRIA6": (3288532, 471584508)}
+FACTOR_EXPONENT = {"QUAD8": 1.115, "TRIA6": 1.11}
+#: peak resident MB of one process: BASE + PER_DOF x dofs + PER_ENTRY x factor entries
+#: (the interpreter and libraries; the matrix, mesh, dof layout and vectors; MUMPS'
+#: factors, 8 bytes an entry, with its work space and copy of the matrix), fitted to
+#: the bench's peaks at N = 320 and 640 (within 6 %; 8 % low at N = 160)
+BASE_MB = 100.0
+PER_DOF_MB = 300e-6
+PER_ENTRY_MB = 12.6e-6
+#: on P processes the distributed part per process is (1 / P) x this imbalance
+#: (measured 1.18 - 1.29 on 2 processes at N = 320 .. 1000), plus the input mesh
+#: that rank 0 holds alone while it is distributed
+IMBALANCE = 1.2
+#: the virtual size of a process exceeds its resident peak by about this (MUMPS'
+#: relaxed work space, shared libraries)
+VIRTUAL_EXTRA_MB = 700.0
+#: share of the available memory a run may plan to use
+MARGIN = 0.95
+
+#: the estimate and limit of the last check (results.json "resources")
+LAST = {}
+
+
+@dataclass
+class Estimate:
+    cell_type: str
+    cells: int
+    nodes: int
+    dofs: int
+    matrix_nonzeros: int       # upper triangle
+    factor_entries: int
+    processes: int
+    peak_mb: float             # largest process (rank 0)
+    total_mb: float            # all processes
+
+    def as_dict(self):
+        return {k: (round(v, 1) if isinstance(v, float) else v) for k, v in asdict(self).items()}
+
+
+def estimate(cell_type, cells, nprocs=1, nodes=None):
+    """The :class:`Estimate` for ``cells`` cells of ``cell_type`` on ``nprocs`` processes
+    (``nodes`` if known, else from the cell count)."""
+    nodes = int(nodes if nodes is not None else NODES_PER_CELL[cell_type] * cells)
+    dofs = 2 * nodes
+    nnz = int(NNZ_PER_DOF[cell_type] * dofs)
+    n_ref, f_ref = FACTOR_REFERENCE[cell_type]
+    factor = int(f_ref * (dofs / n_ref) ** FACTOR_EXPONENT[cell_type])
+    shared = PER_DOF_MB * dofs + PER_ENTRY_MB * factor
+    mesh_mb = 60e-6 * cells                       # the input mesh, rank 0 only, while it is distributed
+    if nprocs <= 1:
+        peak = BASE_MB + shared
+        total = peak
+    else:
+        per = BASE_MB + IMBALANCE * shared / nprocs
+        peak = per + mesh_mb
+        total = per * nprocs + mesh_mb
+    return Estimate(cell_type, int(cells), nodes, dofs, nnz, factor, int(nprocs), peak, total)
+
+
+def rectangle_cells(spec):
+    """``(cell_type, cells)`` of a case's generated rectangle (refinement included), or
+    None for a mesh file."""
+    rect = spec.rectangle
+    if rect is None:
+        return None
+    cell = rect.get("cell", "QUAD8")
+    per_square = 2 if cell == "TRIA6" else 1
+    return cell, int(rect["nx"]) * int(rect["ny"]) * per_square * 4 ** int(spec.refine or 0)
+
+
+# -- what the machine can give -------------------------------------------------------------
+
+def _read(path):
+    try:
+        with open(path) as f:
+            return f.read().strip()
+    except OSError:
+        return None
+
+
+def _meminfo_mb(key="MemAvailable"):
+    text = _read("/proc/meminfo") or ""
+    for line in text.splitlines():
+        if line.startswith(key + ":"):
+            return int(line.split()[1]) / 1024.0
+    return None
+
+
+def _cgroup_mb():
+    """What the cgroup of this process still allows, MB (None without a limit)."""
+    rel = None
+    for line in (_read("/proc/self/cgroup") or "").splitlines():
+        parts = line.split(":", 2)
+        if len(parts) == 3 and (parts[0] == "0" or "memory" in parts[1].split(",")):
+            rel = parts[2]
+            if parts[0] == "0":
+                break
+    candidates = []
+    if rel is not None:
+        for base in ("/sys/fs/cgroup" + rel, "/sys/fs/cgroup"):
+            limit, used = _read(base + "/memory.max"), _read(base + "/memory.current")
+            if limit and limit != "max" and used:
+                candidates.append((int(limit) - int(used)) / 2**20)
+                break
+        for base in ("/sys/fs/cgroup/memory" + rel, "/sys/fs/cgroup/memory"):
+            limit, used = _read(base + "/memory.limit_in_bytes"), _read(base + "/memory.usage_in_bytes")
+            if limit and used and int(limit) < 2**60:
+                candidates.append((int(limit) - int(used)) / 2**20)
+                break
+    return min(candidates) if candidates else None
+
+
+def _address_space_mb():
+    """``ulimit -v`` of this process, MB (None when unlimited)."""
+    import resource
+
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    return None if soft == resource.RLIM_INFINITY else soft / 2**20
+
+
+def limits(option=None):
+    """``(limit of all processes MB, limit of one process's virtual size MB, what set it)``:
+    ``option`` (MB, from -xfc_memory_limit) if given, else what the machine can give."""
+    if option is not None:
+        return option, None, "-xfc_memory_limit"
+    found = []
+    avail = _meminfo_mb()
+    if avail is not None:
+        found.append((avail, "MemAvailable"))
+    cg = _cgroup_mb()
+    if cg is not None:
+        found.append((cg, "cgroup limit"))
+    total, why = min(found) if found else (None, None)
+    return total, _address_space_mb(), why
+
+
+def _option_mb():
+    """-xfc_memory_limit MB: None if not given; 0 or less: no check (returns -1)."""
+    from xfemcontact import options
+
+    value = options.get("memory_limit")
+    if value is None:
+        return None
+    return value if value > 0 else -1.0
+
+
+# -- the checks ----------------------------------------------------------------------------
+
+def _gb(mb):
+    return f"{mb / 1024:.1f} GB" if mb >= 1024 else f"{mb:.0f} MB"
+
+
+def check_cells(cell_type, cells, nprocs, where, nodes=None, error=CaseError):
+    """Raise ``error`` (one line, exit code 2) when ``cells`` cells cannot fit; returns the
+    :class:`Estimate`.  ``where``: the start of the message (file and key)."""
+    est = estimate(cell_type, cells, nprocs, nodes)
+    option = _option_mb()
+    LAST.clear()
+    LAST.update(est.as_dict())
+    if option is not None and option < 0:          # -xfc_memory_limit 0: no check
+        LAST["limit_mb"] = None
+        return est
+    total, per_process, why = limits(option)
+    LAST["limit_mb"] = round(total, 1) if total is not None else None
+    too_big = None
+    if total is not None and est.total_mb > MARGIN * total:
+        too_big = (f"{_gb(est.total_mb)} on {nprocs} process{'es' if nprocs > 1 else ''}, "
+                   f"{_gb(total)} available ({why})")
+    elif per_process is not None and est.peak_mb + VIRTUAL_EXTRA_MB > per_process:
+        too_big = (f"{_gb(est.peak_mb + VIRTUAL_EXTRA_MB)} of address space per process, "
+                   f"ulimit -v allows {_gb(per_process)}")
+    if too_big:
+        raise error(f"{where}: {cells} {cell_type} cells ({est.dofs:.3g} dofs) need about {too_big}: "
+                    f"use a coarser mesh or a machine with more memory (-xfc_memory_limit MB sets the "
+                    f"limit, 0 switches this check off)", collective=True)
+    return est
+
+
+def check_case(case, comm=None):
+    """Check a case whose mesh is a generated rectangle from its spec alone, before the
+    rectangle is built (a mesh file is checked once read: see the module docstring).
+    Collective: every process computes and raises the same."""
+    size = rectangle_cells(case.mesh)
+    if size is None:
+        return None
+    nprocs = comm.size if comm is not None else 1
+    return check_cells(size[0], size[1], nprocs, f"{case.source}: mesh.rectangle")
+
+
+def current_nprocs():
+    from xfemcontact._petsc import PETSc
+
+    return PETSc.COMM_WORLD.size
+
+
+def summary():
+    """The last check's estimate and limit (results.json ``resources``), or None."""
+    if not LAST:
+        return None
+    out = dict(LAST)
+    out["estimate_mb"] = out.pop("peak_mb")
+    return out
+
