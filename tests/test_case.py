@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 
 from xfemcontact.case import Case, load_case, schema
 from xfemcontact.case.formula import Condition, Formula, FormulaError
+from xfemcontact.case.functions import TimeFormula
 from xfemcontact.case.load import Material
 from xfemcontact.errors import CaseError, XfcError
 from conftest import SHARED_MESHES
@@ -158,7 +159,7 @@ def test_interface_case():
     assert case.material.model == "D_PLAN" and case.material.nu == 0.0
     assert case.dirichlet[1].groups == ("LIG3", "P4")
     dy = case.dirichlet[1].components["DY"]
-    assert isinstance(dy, Formula) and float(dy(x=0.0, y=10.0)) == pytest.approx(-1e-6)
+    assert isinstance(dy, TimeFormula) and float(dy(x=0.0, y=10.0)) == pytest.approx(-1e-6)
     pres, side = case.traction
     assert pres.force is None and pres.pressure.value() == pytest.approx(100.0)
     assert side.pressure is None and side.force["FX"].value() == 0.0

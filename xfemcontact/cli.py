@@ -1,4 +1,4 @@
-"""Command line: ``xfemcontact run CASE.toml [-o OUTDIR] [--overwrite] [PETSc options...]``.
+"""Command line: ``xfemcontact run CASE.toml [-o OUTDIR] [--overwrite] [--restart] [-q] [PETSc options...]``.
 
 Every option we do not know goes to PETSc (``-snes_monitor``, ``-ksp_view``,
 ``-log_view``, ``-pc_factor_mat_solver_type``, ``-mat_mumps_icntl_24 1`` ...).
@@ -26,11 +26,14 @@ import xfemcontact
 #: seconds the processes that received a signal wait for the others before aborting
 SIGNAL_AGREEMENT = 2.0
 
-USAGE = """usage: xfemcontact run CASE.toml [-o OUTDIR] [--overwrite] [PETSc options...]
+USAGE = """usage: xfemcontact run CASE.toml [-o OUTDIR] [--overwrite] [--restart] [-q] [PETSc options...]
 
   CASE.toml        the case file (TOML, see README.md)
   -o, --output DIR result folder (default: results/<case name>)
   --overwrite      replace an existing result folder (only one xfemcontact wrote)
+  --restart        resume a case with [instants] after its last checkpointed step
+                   (OUTDIR.checkpoints; same number of processes)
+  -q, --quiet      no progress line per load step
   PETSc options    anything else, e.g. -snes_monitor -ksp_view -log_view
                    -pc_factor_mat_solver_type mumps -mat_mumps_icntl_24 1
                    (-help lists them all)
@@ -46,11 +49,15 @@ def usage():
     return USAGE + "\n".join(options.help_lines()) + "\n"
 
 
-def split_args(argv):
-    """Our arguments and the PETSc ones: ``(case, outdir, overwrite, help, petsc_args)``."""
+def split_args(argv, flags=None):
+    """Our arguments and the PETSc ones: ``(case, outdir, overwrite, help, petsc_args)``;
+    ``flags`` (a dict), if given, gets ``restart`` and ``quiet``."""
     case = outdir = None
     overwrite = want_help = False
     petsc = []
+    flags = {} if flags is None else flags
+    flags.setdefault("restart", False)
+    flags.setdefault("quiet", False)
     it = iter(argv)
     for tok in it:
         if tok in ("-o", "--output"):
@@ -59,6 +66,10 @@ def split_args(argv):
             outdir = tok.split("=", 1)[1]
         elif tok == "--overwrite":
             overwrite = True
+        elif tok == "--restart":
+            flags["restart"] = True
+        elif tok in ("-q", "--quiet"):
+            flags["quiet"] = True
         elif tok in ("-h", "--help"):
             want_help = True
         elif case is None and not tok.startswith("-") and tok.endswith(".toml"):
@@ -76,7 +87,8 @@ def main(argv=None):
     if argv[0] != "run":
         print(usage(), end="", file=sys.stderr)
         return 2
-    case, outdir, overwrite, want_help, petsc = split_args(argv[1:])
+    flags = {}
+    case, outdir, overwrite, want_help, petsc = split_args(argv[1:], flags)
     if want_help or case is None:
         print(usage(), end="")
         return 0 if want_help else 2
@@ -96,7 +108,7 @@ def main(argv=None):
             agreement = comm.tompi4py().Dup()
         from xfemcontact.run import run
 
-        return run(case, outdir, overwrite)
+        return run(case, outdir, overwrite, restart=flags["restart"], quiet=flags["quiet"])
     except Interrupted as exc:
         # mpirun forwards a signal to every process, and rank 0 knows what became of the
         # results; a signal to some processes only must end the whole job

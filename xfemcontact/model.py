@@ -160,6 +160,8 @@ class Model:
         self.load_norm = self.f0.norm()
         # one matrix: K = K_bulk + (interface tangent of the last Jacobian, K_int)
         self._K_int = None
+        self._bulk_kept = False
+        self.load_steps = False            # solved in load steps (xfemcontact.history)
 
     def _zero_interface_pattern(self, A):
         """Explicit zeros on every interface coupling, so the pattern never changes."""
@@ -196,15 +198,57 @@ class Model:
         same = self._K_int is not None and np.array_equal(new, self._K_int)
         if self.comm.tompi4py().allreduce(same, op=MPI.LAND):
             return
-        self.problem.add_matrices(J, new if self._K_int is None else new - self._K_int)
+        if self._bulk_kept:                 # J = bulk + new exactly, whatever came before
+            J.retrieveValues()
+            self.problem.add_matrices(J, new)
+        else:
+            self.problem.add_matrices(J, new if self._K_int is None else new - self._K_int)
         self._K_int = new
         J.assemble()
+
+    def keep_bulk_values(self):
+        """Keep a copy of the bulk matrix values (PETSc MatStoreValues) so that every new
+        interface tangent replaces the previous one exactly: the Jacobian is then a
+        function of the tangent alone, not of the tangents before it, and a run resumed
+        from a checkpoint factorises the same matrices as the uninterrupted one.  Costs
+        one copy of the matrix values; used by runs with load steps, before the first
+        solve."""
+        if self.problem is None or self._bulk_kept:
+            return
+        self.K.setOption(PETSc.Mat.Option.NEW_NONZERO_LOCATIONS, False)
+        self.K.storeValues()
+        self._bulk_kept = True
+
+    def interface_tangent(self):
+        """The interface element tangents in the Jacobian now (None: none yet)."""
+        return self._K_int
+
+    def set_interface_tangent(self, K):
+        """Put the interface tangents ``K`` into the Jacobian (a run resumed from a
+        checkpoint: the Jacobian of the step it stopped at), with the bulk values kept
+        by :meth:`keep_bulk_values`."""
+        if self.problem is None or not self._bulk_kept:
+            return
+        self.K.retrieveValues()
+        if K is not None:
+            self.problem.add_matrices(self.K, K)
+        self.K.assemble()
+        self._K_int = K
+
+    def set_loads(self, x_bc, f0, load_norm):
+        """The loads of another instant (:mod:`xfemcontact.history.loading`): imposed
+        values ``x_bc`` (local work array), ``f0`` (global Vec) and the reference of
+        Newton's relative criterion ``load_norm``.  The bulk matrix does not change."""
+        self.x_bc, self.f0, self.load_norm = x_bc, f0, load_norm
 
     # -- solve --------------------------------------------------------------
     def solve(self):
         """Newton (inside the outer loops of the interface problem, if any); returns the
-        outermost SNES converged reason (> 0 converged)."""
-        self.solver = NonlinearSolver(self)
+        outermost SNES converged reason (> 0 converged).  Called again (the next load
+        step), it reuses the solver: its record goes on, and a tangent that has not
+        changed keeps its factorisation."""
+        if self.solver is None:
+            self.solver = NonlinearSolver(self)
         self.layout.release_setup()      # PetscSections and DMPlex: not needed from here on
         release_heap()
         with phase("solve"):

@@ -77,29 +77,41 @@ def test_samples(model, tests):
     return samples
 
 
-def run(case_path, outdir=None, overwrite=False):
+def run(case_path, outdir=None, overwrite=False, restart=False, quiet=False):
     """Solve ``case_path``, write results into ``outdir``; return the exit code.
 
     Raises :class:`ConvergenceError` (exit code 3) after writing the results of
     a run that did not converge (results.json with ``"converged": false`` and
     ``"diagnostics"``, no test table), and :class:`Interrupted` (with its
     ``outcome``) when SIGINT or SIGTERM stopped it.
+
+    A case with ``[instants]`` is solved step by step (:mod:`xfemcontact.history`):
+    one progress line per step (none with ``quiet``), checkpoints beside the
+    output folder, and ``restart`` resumes after the last completed step.
     """
     comm = PETSc.COMM_WORLD
     mpi = comm.tompi4py()
     t0 = time.perf_counter()
     timing.reset()
     timing.start_logging()
-    folder = None
+    folder = checkpoints = None
     if PETSc.Options().hasName("help"):
         say(comm, *options.help_lines())
     try:
         case = load_case(case_path)
         outdir = outdir or f"results/{case.name}"
-        folder = OutputFolder(outdir, overwrite, mpi)
+        if restart and not case.instants.given:
+            raise XfcError(f"{case.source}: --restart: the case has no [instants] (one step): "
+                           f"nothing to restart from; run it again without --restart",
+                           collective=True)
+        folder = OutputFolder(outdir, overwrite or restart, mpi)
         if folder.cleaned:
             warn(comm, f"{outdir}: removed what earlier interrupted runs left: "
                        f"{', '.join(folder.cleaned)}")
+        if case.instants.given:
+            from xfemcontact.history.checkpoint import Checkpoints
+
+            checkpoints = Checkpoints(outdir, case, mpi, restart=restart, overwrite=overwrite)
         options.check_all()
         check_options()
     except Interrupted as exc:
@@ -113,6 +125,10 @@ def run(case_path, outdir=None, overwrite=False):
             raw = preflight.build_mesh(case, mpi)
         with timing.phase("checks"):
             pre = preflight.preflight(case, raw, mpi)
+            if case.instants.given:
+                from xfemcontact.history.loading import check_instants
+
+                check_instants(case, raw, mpi)
         warn(comm, *pre.warnings)
         if not pre.interface:
             case = dataclasses.replace(case, interface=None)
@@ -123,7 +139,11 @@ def run(case_path, outdir=None, overwrite=False):
         del raw
         warn(comm, *preflight.readjustment_warnings(case, model))
         say(comm, f"{case.title}: {model.layout.global_size} dofs on {comm.size} process(es)")
+        if case.instants.given:
+            return _run_history(case, model, folder, checkpoints, outdir, pre, comm, quiet, t0)
+        tic = time.perf_counter()
         reason = model.solve()
+        seconds = time.perf_counter() - tic
         model.release_factors()
         converged = reason > 0
         loop_warnings = model.run_warnings()
@@ -139,6 +159,10 @@ def run(case_path, outdir=None, overwrite=False):
                                       warnings=pre.warnings)
             timing.TIMINGS["total"] = time.perf_counter() - t0
             summary = results.summary(model, converged, reason, outcomes)
+            summary["steps"] = [{"index": 1, "inst": case.instants.last, "start": case.instants.values[0],
+                                 "level": 0, "listed": True, "converged": bool(converged),
+                                 "seconds": round(seconds, 4), "seconds_total": round(seconds, 4), "iterations": summary["iterations"],
+                                 "interface": summary["interface"]}]
             summary["warnings"] = pre.warnings + list(summary.get("warnings") or [])
             if pre.resolution is not None:
                 summary["interface_resolution"] = pre.resolution
@@ -153,7 +177,7 @@ def run(case_path, outdir=None, overwrite=False):
                            f"previous results, if any, are kept") from None
     except Interrupted as exc:
         folder.abort()
-        exc.outcome = folder.outcome()
+        exc.outcome = folder.outcome() + _checkpointed(checkpoints, outdir)
         raise
     except BaseException:
         folder.abort()
@@ -171,6 +195,84 @@ def run(case_path, outdir=None, overwrite=False):
         exc.outcome = folder.outcome()
         raise
     return 0 if all(o.ok for o in outcomes) else 1
+
+
+def _run_history(case, model, folder, checkpoints, outdir, pre, comm, quiet, t0):
+    """The load steps of a case with ``[instants]``, its results and exit code (inside
+    :func:`run`'s handling of the output folder)."""
+    from xfemcontact.history.stepping import Stepper
+    from xfemcontact.output import series
+
+    checkpoints.check_layout(model)
+    stepper = Stepper(model, say=None if quiet else (lambda *lines: say(comm, *lines)),
+                      samples=test_samples, checkpoints=checkpoints)
+    if checkpoints.manifest is not None:
+        stepper.resume(checkpoints.manifest)
+        n = checkpoints.manifest["completed"]
+        say(comm, f"resumed after step {n} (t = {stepper.time:g}) from {checkpoints.path}")
+    reason = stepper.run()             # model.solve times its phase ("solve")
+    converged = stepper.failure is None
+    diagnostics = None
+    if not converged:
+        diagnostics = diagnose(model, reason, outdir)
+        f = stepper.failure
+        cut = f" after {f['level']} cut(s) (subd_niveau = {case.instants.subd_niveau})" \
+            if case.instants.action == "DECOUPE" else " (echec action = ARRET)"
+        head = f"{case.source}: no convergence at t = {f['inst']:g} (step from t = {f['start']:g}){cut}: "
+        diagnostics["message"] = head + diagnostics["message"][len(f"{case.source}: no convergence: "):]
+        diagnostics["failed_step"] = f
+        stepper.restore_last()
+    model.release_factors()
+    warn(comm, *model.run_warnings())
+    outcomes = stepper.outcomes if converged else []
+    try:
+        with timing.phase("output"):
+            summary = series.write_outputs(folder, model, stepper, checkpoints, converged, reason,
+                                           outcomes, warnings=pre.warnings)
+        timing.TIMINGS["total"] = time.perf_counter() - t0
+        summary["timings"] = {k: round(v, 4) for k, v in timing.TIMINGS.items()}
+        summary["instants"] = list(case.instants.values)
+        summary["steps"] = stepper.steps
+        summary["warnings"] = pre.warnings + list(summary.get("warnings") or [])
+        if pre.resolution is not None:
+            summary["interface_resolution"] = pre.resolution
+        if diagnostics is not None:
+            summary["diagnostics"] = diagnostics
+            summary["tests"] = []
+            summary["tests_skipped"] = f"not converged: {len(case.tests)} test(s) not evaluated"
+        folder.write_json("results.json", summary)
+        folder.commit()
+    except OSError as exc:
+        raise XfcError(f"{outdir}: cannot write the results: {_os_reason(exc)}; the "
+                       f"previous results, if any, are kept") from None
+    if converged:
+        checkpoints.remove()
+    else:
+        checkpoints.release()
+    if outcomes:
+        say(comm, *testtable.table(outcomes))
+    if not converged:
+        kept = _checkpointed(checkpoints, outdir)
+        say(comm, f"NOT CONVERGED: results of {len(stepper.steps)} completed step(s) and diagnostics "
+                  f"in {outdir}/ (results.json: \"converged\": false; {len(case.tests)} test(s) "
+                  f"not evaluated){kept}")
+        raise ConvergenceError(diagnostics["message"], diagnostics=diagnostics)
+    say(comm, f"results in {outdir}/ ({timing.TIMINGS['total']:.2f} s)")
+    return 0 if all(o.ok for o in outcomes) else 1
+
+
+def _checkpointed(checkpoints, outdir):
+    """``; N completed step(s) checkpointed in ... (resume with --restart)`` or ""."""
+    if checkpoints is None or checkpoints.comm.rank != 0:
+        return ""
+    import json
+
+    try:
+        manifest = json.loads((checkpoints.path / "manifest.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return ""
+    return (f"; {manifest.get('completed', 0)} completed step(s) checkpointed in "
+            f"{checkpoints.path} (resume with --restart)")
 
 
 def warn(comm, *lines):

@@ -21,10 +21,11 @@ from typing import Any, Callable, Iterable, NoReturn
 from xfemcontact.case import schema
 from xfemcontact.case.formula import (Condition, Formula, FormulaError, compile_condition,
                                       compile_formula)
+from xfemcontact.case.functions import Function, TimeFormula
 from xfemcontact.errors import CaseError, where
 
 __all__ = ["load_case", "Case", "MeshSpec", "Material", "Dirichlet", "Traction", "BodyForce",
-           "Interface", "Contact", "Newton", "TestSpec", "Output"]
+           "Interface", "Contact", "Newton", "TestSpec", "Output", "Instants"]
 
 
 # --- what a case is ------------------------------------------------------------------------
@@ -53,8 +54,9 @@ class Dirichlet:
     """One ``[[dirichlet]]``: imposed displacements (m) on groups."""
 
     groups: tuple[str, ...]
-    components: dict[str, Formula]    # {"DX": Formula, "DY": Formula}, those given only
+    components: dict[str, TimeFormula]  # {"DX": TimeFormula, "DY": TimeFormula}, those given only
     key: str                          # "dirichlet[0]"
+    fonc_mult: str | None = None      # name of the [functions] table multiplying it
 
 
 @dataclass(frozen=True)
@@ -62,16 +64,45 @@ class Traction:
     """One ``[[traction]]``: a force per unit length (N/m) or a pressure (Pa) on edge groups."""
 
     groups: tuple[str, ...]
-    force: dict[str, Formula] | None  # {"FX": Formula, "FY": Formula} (missing one = 0)
-    pressure: Formula | None
+    force: dict[str, TimeFormula] | None  # {"FX": ..., "FY": ...} (missing one = 0)
+    pressure: TimeFormula | None
     key: str                          # "traction[0]"
+    fonc_mult: str | None = None
 
 
 @dataclass(frozen=True)
 class BodyForce:
     """``[body_force]``: force per unit volume, N/m^3."""
-    FX: Formula
-    FY: Formula
+    FX: TimeFormula
+    FY: TimeFormula
+    fonc_mult: str | None = None
+
+
+@dataclass(frozen=True)
+class Instants:
+    """The instants computed (DEFI_LIST_INST) and what to do when a step fails (ECHEC).
+
+    ``values``: increasing, ``values[0]`` the initial (unloaded) state, one solve
+    per later instant; ``given``: the case has ``[instants]`` (without, one step
+    0 -> 1 and no cutting, ``action = "ARRET"``)."""
+
+    values: tuple[float, ...]
+    given: bool
+    action: str = "ARRET"             # "DECOUPE" | "ARRET"
+    subd_pas: int = 4
+    subd_niveau: int = 3
+
+    @property
+    def last(self) -> float:
+        return self.values[-1]
+
+    def match(self, t: float) -> float | None:
+        """The instant of ``values`` equal to ``t`` to round-off, or None."""
+        span = max(abs(self.values[-1] - self.values[0]), abs(self.values[-1]), 1e-300)
+        for v in self.values:
+            if abs(v - t) <= 1e-9 * span:
+                return v
+        return None
 
 
 @dataclass(frozen=True)
@@ -124,6 +155,7 @@ class TestSpec:
     tolerance: float
     criterion: str                    # "ABSOLU" | "RELATIF"
     key: str                          # "test[0]"
+    inst: float = 1.0                 # the instant tested (one of case.instants.values)
 
 
 @dataclass(frozen=True)
@@ -150,9 +182,15 @@ class Case:
     interface: Interface | None
     contact: Contact
     newton: Newton
-    reference: dict[str, Formula]     # field -> Formula
+    reference: dict[str, TimeFormula]  # field -> TimeFormula (at the last instant)
     tests: tuple[TestSpec, ...]
     output: Output
+    instants: Instants = Instants((0.0, 1.0), False)
+    functions: dict[str, Function] | None = None   # name -> Function (DEFI_FONCTION)
+
+    def reference_at(self, t: float) -> dict[str, TimeFormula]:
+        """The reference formulas at instant ``t``."""
+        return {name: f.at(t) for name, f in self.reference.items()}
 
     def check_groups(self, available: Iterable[str]) -> None:
         """Raise :class:`CaseError` for the first load group not in ``available``."""
@@ -182,7 +220,7 @@ def load_case(path: str | os.PathLike[str]) -> Case:
     walker.params = walker.value(schema.CASE.keys["parameters"], raw.get("parameters", {}),
                                  "parameters", {})
     values = walker.table(schema.CASE, raw, "")
-    case = _build(values, path, source, walker.params)
+    case = _build(values, path, source, walker.params, walker.fail)
     _check_case(case, walker.fail)
     return case
 
@@ -232,6 +270,7 @@ class _Walker:
         self.convert: dict[str, Callable[[schema.Key, Any, str, dict[str, Any]], Any]] = {
             "float": self._float, "int": self._int, "str": self._str,
             "choice": self._choice, "choices": self._choices, "formula": self._formula,
+            "tformula": self._tformula, "numbers": self._numbers,
             "condition": self._condition, "names": self._names, "point": self._point,
             "interval": self._interval, "file": self._file, "table": self._table,
             "tables": self._tables}
@@ -378,15 +417,27 @@ class _Walker:
         items = [self._choice(key, item, f"{at}[{i}]", siblings) for i, item in enumerate(raw)]
         return tuple(dict.fromkeys(items))
 
-    def _formula(self, key: schema.Key, raw: Any, at: str, siblings: dict[str, Any]) -> Formula:
+    def _formula(self, key: schema.Key, raw: Any, at: str, siblings: dict[str, Any],
+                 variables: tuple[str, ...] = ("x", "y")) -> Formula:
         try:
-            return _single_line(compile_formula, raw, self.params, source=self.source, key=at)
+            return _single_line(compile_formula, raw, self.params, source=self.source, key=at,
+                                variables=variables)
         except FormulaError as exc:
             hint = _unit_hint(raw, key.doc, strict=True) if isinstance(raw, str) else None
             if hint:
                 raise FormulaError(f"{where(self.source, at)}: expected a number or a formula, "
                                    f"got {_show(raw)} ({hint})") from None
             raise exc from None
+
+    def _tformula(self, key: schema.Key, raw: Any, at: str, siblings: dict[str, Any]) -> Formula:
+        """A formula of x, y and t (bound to an instant when the case is built)."""
+        return self._formula(key, raw, at, siblings, variables=("x", "y", "t"))
+
+    def _numbers(self, key: schema.Key, raw: Any, at: str,
+                 siblings: dict[str, Any]) -> tuple[float, ...]:
+        if not isinstance(raw, list) or not raw:
+            self.fail(at, f"expected a non-empty array of numbers, got {_show(raw)}")
+        return tuple(float(self._number(item, f"{at}[{i}]")) for i, item in enumerate(raw))
 
     def _condition(self, key: schema.Key, raw: Any, at: str,
                    siblings: dict[str, Any]) -> Condition:
@@ -496,26 +547,71 @@ def _unit_hint(text: str, doc: str, strict: bool = False) -> str | None:
 
 # --- building the case ---------------------------------------------------------------------
 
-def _build(v: dict[str, Any], path: Path, source: str, params: dict[str, float]) -> Case:
+def _build(v: dict[str, Any], path: Path, source: str, params: dict[str, float],
+           fail: Callable[[str, str], NoReturn]) -> Case:
     mesh, contact, test_specs = v["mesh"], v["contact"], []
-    zero = {name: compile_formula(0.0, params, source=source, key=name)
+    instants = _instants(v["instants"], fail)
+    functions = _functions(v["functions"], fail)
+    last = instants.last
+
+    def mult_of(table, at):
+        name = table.get("fonc_mult")
+        if name is None:
+            return None
+        if name not in functions:
+            known = ", ".join(sorted(functions)) or "none"
+            fail(f"{at}.fonc_mult", f"no function {_show(name)} in [functions] (functions: {known})")
+        function = functions[name]
+        outside = function.outside(instants.values)
+        if outside is not None:
+            fail(f"{at}.fonc_mult", f"function {_show(name)} has no value at instant {outside:g} "
+                                    f"(its abscissae are {function.t[0]:g} .. {function.t[-1]:g}; "
+                                    f"set prol_gauche / prol_droite to CONSTANT or LINEAIRE, or "
+                                    f"extend vale)")
+        return function
+
+    def bound(formula, mult):
+        return TimeFormula(formula, mult, last)
+
+    zero = {name: compile_formula(0.0, params, source=source, key=name, variables=("x", "y", "t"))
             for name in ("FX", "FY")}
     for i, t in enumerate(v["test"]):
+        inst = last
+        if t["inst"] is not None:
+            inst = instants.match(t["inst"])
+            if inst is None:
+                fail(f"test[{i}].inst", f"{t['inst']:g} is not an instant of the case "
+                                        f"(instants: {_list_instants(instants.values)})")
         test_specs.append(TestSpec(
             name=t["name"] if t["name"] is not None else f"{t['type']} {t['field']}",
             field=t["field"], kind=schema.FIELD_KIND[t["field"]], type=t["type"],
             where=t["where"], point=t["point"],
             reference=t["reference"] if t["reference"] is not None else 0.0,
-            tolerance=t["tolerance"], criterion=t["criterion"], key=f"test[{i}]"))
+            tolerance=t["tolerance"], criterion=t["criterion"], key=f"test[{i}]", inst=inst))
     tractions = []
     for i, t in enumerate(v["traction"]):
-        force = None
+        mult = mult_of(t, f"traction[{i}]")
+        force = pressure = None
         if t["PRES"] is None:
-            force = {name: t[name] if t[name] is not None else zero[name]
+            force = {name: bound(t[name] if t[name] is not None else zero[name], mult)
                      for name in ("FX", "FY")}
-        tractions.append(Traction(groups=t["group"], force=force, pressure=t["PRES"],
-                                  key=f"traction[{i}]"))
+        else:
+            pressure = bound(t["PRES"], mult)
+        tractions.append(Traction(groups=t["group"], force=force, pressure=pressure,
+                                  key=f"traction[{i}]", fonc_mult=t["fonc_mult"]))
+    dirichlet = []
+    for i, d in enumerate(v["dirichlet"]):
+        mult = mult_of(d, f"dirichlet[{i}]")
+        dirichlet.append(Dirichlet(
+            groups=d["group"], key=f"dirichlet[{i}]", fonc_mult=d["fonc_mult"],
+            components={c: bound(d[c], mult) for c in ("DX", "DY") if d[c] is not None}))
     body = v["body_force"]
+    body_force = None
+    if body is not None:
+        mult = mult_of(body, "body_force")
+        body_force = BodyForce(**{name: bound(body[name] if body[name] is not None else zero[name],
+                                              mult) for name in ("FX", "FY")},
+                               fonc_mult=body["fonc_mult"])
     interface = v["interface"]
     return Case(
         path=path.resolve(), source=source, name=path.stem,
@@ -523,22 +619,83 @@ def _build(v: dict[str, Any], path: Path, source: str, params: dict[str, float])
         params=dict(params),
         mesh=MeshSpec(file=mesh["file"], rectangle=mesh["rectangle"], refine=mesh["refine"]),
         material=Material(**v["material"]),
-        dirichlet=tuple(
-            Dirichlet(groups=d["group"], key=f"dirichlet[{i}]",
-                      components={c: d[c] for c in ("DX", "DY") if d[c] is not None})
-            for i, d in enumerate(v["dirichlet"])),
+        dirichlet=tuple(dirichlet),
         traction=tuple(tractions),
-        body_force=None if body is None else BodyForce(
-            **{name: body[name] if body[name] is not None else zero[name]
-               for name in ("FX", "FY")}),
+        body_force=body_force,
         interface=None if interface is None else Interface(**interface),
         contact=Contact(
             friction=contact["frottement"] == "COULOMB" and contact["coulomb"] > 0,
             **{name: value for name, value in contact.items() if name != "frottement"}),
         newton=Newton(**v["newton"]),
-        reference={name: f for name, f in v["reference"].items() if f is not None},
+        reference={name: bound(f, None) for name, f in v["reference"].items() if f is not None},
         tests=tuple(test_specs),
-        output=Output(**v["output"]))
+        output=Output(**v["output"]),
+        instants=instants,
+        functions=functions)
+
+
+def _list_instants(values, limit=8):
+    shown = ", ".join(f"{t:g}" for t in values[:limit])
+    return shown + (f", ... ({len(values)} in all)" if len(values) > limit else "")
+
+
+def _instants(table, fail):
+    """The :class:`Instants` of ``[instants]`` (one step 0 -> 1 without it)."""
+    if table is None:
+        return Instants((0.0, 1.0), False)
+    points = []
+    if table["values"] is not None:
+        values = table["values"]
+        for i in range(1, len(values)):
+            if not values[i] > values[i - 1]:
+                fail(f"instants.values[{i}]", f"instants must increase, got {values[i]:g} after "
+                                              f"{values[i - 1]:g}")
+        points += list(values)
+    for i, r in enumerate(table["ranges"] or ()):
+        if not r["end"] > r["start"]:
+            fail(f"instants.ranges[{i}].end", f"must be > start ({r['start']:g}), got {r['end']:g}")
+        n = r["steps"]
+        points += [r["start"] + (r["end"] - r["start"]) * k / n for k in range(n)] + [r["end"]]
+    points = sorted(points)
+    span = max(points[-1] - points[0], abs(points[-1]), 1e-300)
+    merged = [points[0]]
+    for t in points[1:]:
+        if t - merged[-1] > 1e-9 * span:
+            merged.append(t)
+    if len(merged) > schema.MAX_INSTANTS:
+        fail("instants", f"too many instants ({len(merged)}, at most {schema.MAX_INSTANTS})")
+    if len(merged) < 2:
+        fail("instants", f"give at least two instants: the initial state and one computed "
+                         f"(got {_list_instants(merged)})")
+    echec = table["echec"]
+    return Instants(tuple(merged), True, echec["action"], echec["subd_pas"], echec["subd_niveau"])
+
+
+def _functions(table, fail):
+    """{name: :class:`Function`} of ``[functions]``."""
+    out = {}
+    for name, f in (table or {}).items():
+        at = f"functions.{name}"
+        if f["vale"] is not None:
+            vale = f["vale"]
+            if len(vale) % 2:
+                fail(f"{at}.vale", f"expected pairs t0, f0, t1, f1, ... (an even count of numbers), "
+                                   f"got {len(vale)} numbers")
+            ts, fs = vale[0::2], vale[1::2]
+            key = f"{at}.vale"
+        else:
+            if f["vale_fonc"] is None:
+                fail(f"{at}.vale_fonc", "required with vale_para (the values at its abscissae)")
+            ts, fs = f["vale_para"], f["vale_fonc"]
+            if len(ts) != len(fs):
+                fail(f"{at}.vale_fonc", f"expected as many values as vale_para ({len(ts)}), "
+                                        f"got {len(fs)}")
+            key = f"{at}.vale_para"
+        for i in range(1, len(ts)):
+            if not ts[i] > ts[i - 1]:
+                fail(key, f"the abscissae must increase, got {ts[i]:g} after {ts[i - 1]:g}")
+        out[name] = Function(name, tuple(ts), tuple(fs), f["prol_gauche"], f["prol_droite"])
+    return out
 
 
 def _kind(path: Path) -> str:

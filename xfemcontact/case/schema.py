@@ -26,6 +26,10 @@ Value types (``Key.type``):
 * ``choices``: an array of ``choice`` values, stored as a tuple (repeats dropped).
 * ``formula``: a number or a formula string of ``x``, ``y`` and the
   parameters, compiled at load time into a :class:`~xfemcontact.case.formula.Formula`.
+* ``tformula``: the same with the instant ``t`` too (loads and references), stored as a
+  :class:`~xfemcontact.case.functions.TimeFormula` (bound to the last instant, with
+  the ``fonc_mult`` function of its table when it has one).
+* ``numbers``: a non-empty array of finite numbers, stored as a tuple of floats.
 * ``condition``: a condition string, compiled into a
   :class:`~xfemcontact.case.formula.Condition`; its variables are
   ``variables[siblings[context]]`` (they depend on a key validated before it).
@@ -68,6 +72,9 @@ TEST_TYPES = ("MIN", "MAX", "VALUE", "SOMM_ABS", "MAX_ERROR")
 CRITERIA = ("ABSOLU", "RELATIF")
 OUTPUT_FORMATS = ("xdmf", "vtu", "med")
 MAX_REFINE = 6
+#: most instants of a case (after the ranges are expanded) and most subdivision levels
+MAX_INSTANTS = 100000
+MAX_SUBD = 20
 MAX_CELLS_PER_SIDE = 10000
 #: most iterations of any loop (ITER_GLOB_MAXI, ITER_CONT_MAXI, ITER_FROT_MAXI and the
 #: options overriding them): far beyond any useful count, far below PETSc's integers
@@ -76,6 +83,7 @@ MAX_ITERATIONS = 1000000
 #: names a parameter may not take, with what they already are
 RESERVED_NAMES = {
     **dict.fromkeys(("x", "y"), "a formula variable"),
+    "t": "a formula variable (the instant)",
     **dict.fromkeys(FIELDS, "a field name usable in test conditions"),
     **dict.fromkeys(CONSTANTS, "a constant"),
     **dict.fromkeys(FUNCTIONS, "a function"),
@@ -168,6 +176,16 @@ def formula(doc: str, **kwargs: Any) -> Key:
     return Key("formula", doc, **kwargs)
 
 
+def tformula(doc: str, **kwargs: Any) -> Key:
+    """A number or a formula of x, y and the instant t (loads, references)."""
+    return Key("tformula", doc, **kwargs)
+
+
+def fonc_mult() -> Key:
+    return Key("str", "name of a [functions] table multiplying this load's values at each "
+               "instant (FONC_MULT)", max_length=100)
+
+
 RECTANGLE = Table({
     "nx": Key("int", "number of cells along x", required=True, ge=1, le=MAX_CELLS_PER_SIDE),
     "ny": Key("int", "number of cells along y", required=True, ge=1, le=MAX_CELLS_PER_SIDE),
@@ -194,21 +212,24 @@ MATERIAL = Table({
 
 DIRICHLET = Table({
     "group": Key("names", "edge or node group(s)", required=True),
-    "DX": formula("imposed x displacement in m, number or formula of x, y"),
-    "DY": formula("imposed y displacement in m, number or formula of x, y"),
+    "DX": tformula("imposed x displacement in m, number or formula of x, y, t"),
+    "DY": tformula("imposed y displacement in m, number or formula of x, y, t"),
+    "fonc_mult": fonc_mult(),
 }, doc="DDL_IMPO: imposed displacements", rules=(AtLeastOne(("DX", "DY")),))
 
 TRACTION = Table({
     "group": Key("names", "edge group(s)", required=True),
-    "FX": formula("x force per unit length in N/m (FORCE_CONTOUR)"),
-    "FY": formula("y force per unit length in N/m (FORCE_CONTOUR)"),
-    "PRES": formula("pressure in Pa, > 0 pushes into the body (PRES_REP)"),
+    "FX": tformula("x force per unit length in N/m (FORCE_CONTOUR)"),
+    "FY": tformula("y force per unit length in N/m (FORCE_CONTOUR)"),
+    "PRES": tformula("pressure in Pa, > 0 pushes into the body (PRES_REP)"),
+    "fonc_mult": fonc_mult(),
 }, doc="FORCE_CONTOUR or PRES_REP: loads on edges",
     rules=(AtLeastOne(("FX", "FY", "PRES")), NotBoth(("FX", "FY"), ("PRES",))))
 
 BODY_FORCE = Table({
-    "FX": formula("x force per unit volume in N/m^3"),
-    "FY": formula("y force per unit volume in N/m^3"),
+    "FX": tformula("x force per unit volume in N/m^3"),
+    "FY": tformula("y force per unit volume in N/m^3"),
+    "fonc_mult": fonc_mult(),
 }, doc="FORCE_INTERNE: body force", rules=(AtLeastOne(("FX", "FY")),))
 
 INTERFACE = Table({
@@ -268,8 +289,8 @@ NEWTON = Table({
 }, doc="STAT_NON_LINE CONVERGENCE")
 
 REFERENCE = Table({
-    name: formula(f"analytical {name}, formula of x, y") for name in FIELDS
-}, doc="analytical solution: field name -> formula of x, y")
+    name: tformula(f"analytical {name}, formula of x, y, t") for name in FIELDS
+}, doc="analytical solution: field name -> formula of x, y, t")
 
 _NOT_MAX_ERROR = tuple(t for t in TEST_TYPES if t != "MAX_ERROR")
 TEST = Table({
@@ -283,6 +304,8 @@ TEST = Table({
     "tolerance": Key("float", "tolerance", required=True, gt=0),
     "criterion": Key("choice", "absolute or relative tolerance", default="RELATIF",
                      choices=CRITERIA),
+    "inst": Key("float", "instant of the results tested, one of [instants] (default: the "
+                "last instant)"),
 }, doc="TEST_TABLE: a check of the results", rules=(
     When("type", ("MAX_ERROR",), forbid=("reference",),
          hint="the error to reference.<field> is compared to 0"),
@@ -296,6 +319,50 @@ OUTPUT = Table({
     "formats": Key("choices", "result file formats", default=["xdmf"], choices=OUTPUT_FORMATS),
     "plots": flag("draw the interface plots", default=True),
 }, doc="what is written")
+
+RANGE = Table({
+    "start": Key("float", "first instant of the range (DEBUT)", required=True),
+    "end": Key("float", "last instant of the range (JUSQU_A), > start", required=True),
+    "steps": Key("int", "number of equal steps from start to end (NOMBRE)", required=True,
+                 ge=1, le=MAX_INSTANTS),
+}, doc="INTERVALLE: equal steps from start to end")
+
+ECHEC = Table({
+    "evenement": Key("choice", "the event handled: a step that does not converge",
+                     default="ERREUR", choices=("ERREUR",)),
+    "action": Key("choice", "DECOUPE: cut the step and solve the pieces; ARRET: stop",
+                  default="DECOUPE", choices=("DECOUPE", "ARRET")),
+    "subd_methode": Key("choice", "how a step is cut: MANUEL = into subd_pas equal pieces",
+                        default="MANUEL", choices=("MANUEL",)),
+    "subd_pas": Key("int", "pieces a failed step is cut into", default=4, ge=2, le=100),
+    "subd_niveau": Key("int", "most nested cuts of a step (a piece of a piece ...)", default=3,
+                       ge=1, le=MAX_SUBD),
+}, doc="ECHEC: what to do with a step that does not converge")
+
+INSTANTS = Table({
+    "values": Key("numbers", "instants (DEFI_LIST_REEL VALE), increasing"),
+    "ranges": Key("tables", "ranges of equal steps (INTERVALLE), several allowed: "
+                  "[{start, end, steps}, ...]", table=RANGE),
+    "echec": Key("table", ECHEC.doc, default={}, table=ECHEC),
+}, doc="DEFI_LIST_INST: the instants computed (the first is the initial, unloaded state)",
+    rules=(AtLeastOne(("values", "ranges")),))
+
+FUNCTION = Table({
+    "vale": Key("numbers", "t0, f0, t1, f1, ... (VALE: pairs, t increasing)"),
+    "vale_para": Key("numbers", "t0, t1, ... increasing (VALE_PARA)"),
+    "vale_fonc": Key("numbers", "f0, f1, ... (VALE_FONC, as many as vale_para)"),
+    "interpol": Key("choice", "interpolation between the points", default="LIN",
+                    choices=("LIN",)),
+    "prol_gauche": Key("choice", "before the first abscissa: CONSTANT, LINEAIRE or EXCLU (no "
+                       "value: an error)", default="EXCLU", choices=("CONSTANT", "LINEAIRE", "EXCLU")),
+    "prol_droite": Key("choice", "after the last abscissa: CONSTANT, LINEAIRE or EXCLU",
+                       default="EXCLU", choices=("CONSTANT", "LINEAIRE", "EXCLU")),
+}, doc="DEFI_FONCTION: a piecewise linear function of time",
+    rules=(NotBoth(("vale",), ("vale_para", "vale_fonc")), AtLeastOne(("vale", "vale_para"))))
+
+FUNCTIONS = Table({}, doc="name = {vale = [...], prol_gauche, prol_droite}: functions of time "
+                  "for fonc_mult (DEFI_FONCTION)",
+                  extra=Key("table", "a piecewise linear function of time", table=FUNCTION))
 
 PARAMETERS = Table({}, doc="name = number, usable in every formula",
                    extra=Key("float", "a number usable in every formula"))
@@ -312,6 +379,8 @@ CASE = Table({
     "contact": Key("table", CONTACT.doc, default={}, table=CONTACT),
     "newton": Key("table", NEWTON.doc, default={}, table=NEWTON),
     "reference": Key("table", REFERENCE.doc, default={}, table=REFERENCE),
+    "instants": Key("table", INSTANTS.doc, table=INSTANTS),
+    "functions": Key("table", FUNCTIONS.doc, default={}, table=FUNCTIONS),
     "test": Key("tables", TEST.doc, default=[], table=TEST),
     "output": Key("table", OUTPUT.doc, default={}, table=OUTPUT),
 }, doc="an X-FEM contact case")
@@ -336,11 +405,15 @@ def reference(table: Table = CASE, prefix: str = "") -> list[str]:
         dotted = f"{prefix}.{name}" if prefix else name
         if key.type in ("table", "tables"):
             assert key.table is not None          # table keys have their table
-            brackets = "[[{}]]" if key.type == "tables" else "[{}]"
+            brackets = ("{} = [{{...}}, ...]" if prefix else "[[{}]]") if key.type == "tables" \
+                else "[{}]"
             lines.append(f"{brackets.format(dotted):26} {key.doc}")
             lines.extend(reference(key.table, dotted))
-            if key.table.extra is not None:
-                lines.append(f"{dotted + '.<name>':26} {key.table.extra.doc}")
+            extra = key.table.extra
+            if extra is not None:
+                lines.append(f"{dotted + '.<name>':26} {extra.doc}")
+                if extra.type == "table":
+                    lines.extend(reference(extra.table, dotted + ".<name>"))
             continue
         what = [key.type]
         if key.choices:

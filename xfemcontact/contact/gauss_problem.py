@@ -133,6 +133,8 @@ class GaussContactProblem(InterfaceProblem):
         """``(k, ng)`` friction status at ``x``: 0 stick, +-1 slip direction."""
         g, ut, lam, Lam = self._fields(x)
         st = self._state
+        if st.ut0 is not None:
+            ut = ut - st.ut0
         return gauss_point.friction_status(self.law, st.chi, st.s, ut, Lam)
 
     @contextmanager
@@ -155,6 +157,42 @@ class GaussContactProblem(InterfaceProblem):
 
     def restore(self, snapshot: PointState) -> None:
         self._state = snapshot.copy()
+
+    # -- load steps -----------------------------------------------------------------
+    def begin_step(self, x, first: bool) -> None:
+        """A new load step from the converged ``x``: statuses carry over, the thresholds
+        are the contact pressures of ``x`` at the Gauss points, friction counts the
+        tangential jump from that of ``x``.  ``first``: the first step (nothing changes)."""
+        if first:
+            return
+        g, ut, lam, Lam = self._fields(x)
+        st = self._state
+        st.ut0 = ut.copy()
+        if self.friction and not st.unbounded:
+            st.s = gauss_point.threshold(lam)
+            self._previous_lags_c = self._lags_c_dofs(x)
+            self.carried_thresholds = True
+
+    def state(self) -> dict:
+        st = self._state
+        return {"chi": st.chi.copy(), "s": st.s.copy(), "unbounded": st.unbounded,
+                "ut0": None if st.ut0 is None else st.ut0.copy(),
+                "coef_frot": self.law.coef_frot, "natural_frot": self._natural_frot,
+                "previous_lags_c": None if self._previous_lags_c is None else self._previous_lags_c.copy(),
+                "carried_thresholds": self.carried_thresholds}
+
+    def set_state(self, d: dict) -> None:
+        self._state = PointState(np.array(d["chi"]).astype(np.int64), np.array(d["s"], dtype=float),
+                                 None, bool(d["unbounded"]),
+                                 None if d["ut0"] is None else np.array(d["ut0"], dtype=float))
+        self.law.coef_frot = float(d["coef_frot"])
+        self._natural_frot = None if d["natural_frot"] is None else float(d["natural_frot"])
+        self._previous_lags_c = None if d["previous_lags_c"] is None else np.array(d["previous_lags_c"])
+        self.carried_thresholds = bool(d["carried_thresholds"])
+
+    def status_changes(self, d: dict) -> int:
+        """Interface Gauss points (all processes) whose contact status differs from ``d``."""
+        return self._mpi().allreduce(int((self._state.chi != d["chi"]).sum()))
 
     def largest_threshold(self) -> float:
         """max |s| over every process (Pa)."""

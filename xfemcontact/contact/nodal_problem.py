@@ -49,6 +49,9 @@ from xfemcontact.contact.threshold import ThresholdUpdate
 #: a weight below this (in absolute value) is taken as zero when looking for
 #: dependent vertices (extrapolations with a negative weight)
 NEGATIVE = -1e-14
+#: after the first load step, pressures below this fraction of the largest one of the
+#: previous steps are zero (see NodalContactProblem._lam_zero)
+HISTORY_ZERO = 1e-9
 
 
 class NodalContactProblem(InterfaceProblem):
@@ -79,6 +82,8 @@ class NodalContactProblem(InterfaceProblem):
         self._dependent_vertices()
         scales = coefficients(setup.case, mesh, setup.geo)
         self.rho_n, self._coef_frot, self._h = scales.coef_cont, scales.coef_frot, scales.h
+        self._kappa = setup.case.material.E / scales.h     # Pa/m: weighs the rows of the dofs
+        self._kappa_rows = None
         self.rho_T = None                                                 # Pa/m, see _set_rho_T
         shape = self.rep_index.shape
         start = 1 if c.contact_init is not False else 0
@@ -102,7 +107,13 @@ class NodalContactProblem(InterfaceProblem):
         self._dof_id = ids                       # input id of each slot's dof (partition-free order)
         self._mark = ((ids * 2654435761) % 4294967296) / 4294967296.0 + 0.5
         self._seen_contact, self._seen_slip = set(), set()
-        self._accelerated = ThresholdUpdate(
+        self._accelerated = self._threshold_update()
+        self._h0 = None                          # jump dofs at the start of the step (None: 0)
+        self._floor_lam = self._floor_gap = 0.0  # round-off scales of the previous steps
+        self.carried_thresholds = False          # thresholds of a previous step's solution
+
+    def _threshold_update(self):
+        return ThresholdUpdate(
             lambda a, b: self._mpi.allreduce(float((a[self._once] * b[self._once]).sum())))
 
     # -- set-up ---------------------------------------------------------------------
@@ -173,6 +184,29 @@ class NodalContactProblem(InterfaceProblem):
     def _max(self, a):
         return self._mpi.allreduce(float(np.abs(a).max(initial=0.0)), op=MPI.MAX)
 
+    def _lam_scale(self, lam):
+        """The pressure scale: max |LAGS_C| now, and after the first load step at least
+        the largest of the previous steps."""
+        return max(self._max(lam), self._floor_lam)
+
+    def _lam_zero(self, lam):
+        """Pressures at most this (Pa) are zero in the status and threshold tests: the
+        round-off of max |LAGS_C| now, and after the first load step HISTORY_ZERO times
+        the largest pressure of the previous steps (a load back to zero leaves
+        pressures of the round-off of the earlier ones, amplified by the conditioning:
+        statuses, thresholds and the ratio LAGS_F1 must not follow them)."""
+        return max(nodal.ROUNDOFF * self._max(lam), HISTORY_ZERO * self._floor_lam)
+
+    def _threshold(self, lam):
+        """Thresholds s = min(LAGS_C, 0), zero where |LAGS_C| <= :meth:`_lam_zero`."""
+        if self._floor_lam == 0.0:
+            return nodal.threshold(lam, self._max(lam))
+        s = np.minimum(lam, 0.0)
+        return np.where(np.abs(s) <= self._lam_zero(lam), 0.0, s)
+
+    def _gap_scale(self, h):
+        return self._max(np.einsum("kvd,kd->kv", np.abs(self._An), np.abs(h)) / np.maximum(self._Wv, 1e-300))
+
     # -- cycles ---------------------------------------------------------------------
     def _fingerprint(self, values):
         """A number that identifies the statuses ``values (k, m)`` of every dof."""
@@ -215,9 +249,15 @@ class NodalContactProblem(InterfaceProblem):
         the values they come from: ``(slip, h, lam, T, active, bound)``."""
         ve, h, lam, T = self._values(x)
         D = self._mean_divisor()
-        gt = self._assembled(np.zeros(lam.shape), np.einsum("kmd,kd->km", self._Bt, h))[1] / D
         active, bound = self._bounds()
-        tol = nodal.ROUNDOFF * self._max(np.where(active, gt, 0.0))
+        if self._h0 is None:
+            gt = self._assembled(np.zeros(lam.shape), np.einsum("kmd,kd->km", self._Bt, h))[1] / D
+            tol = nodal.ROUNDOFF * self._max(np.where(active, gt, 0.0))
+        else:       # the slip increment of the step; round-off on the scale of the whole slip
+            gt = self._assembled(np.zeros(lam.shape), np.einsum("kmd,kd->km", self._Bt, h - self._h0))[1] / D
+            total = self._assembled(np.zeros(lam.shape), np.einsum("kmd,kd->km", self._Bt, h))[1] / D
+            tol = nodal.ROUNDOFF * max(self._max(np.where(active, gt, 0.0)),
+                                       self._max(np.where(active, total, 0.0)))
         slip = self._no_cycle(self.slip, nodal.friction_status(self.slip, active, T, gt, bound, tol),
                               self._seen_slip)
         return slip, h, lam, T, active, bound
@@ -238,7 +278,8 @@ class NodalContactProblem(InterfaceProblem):
         Bn, Bt = self._Bn, self._Bt
         Rh = np.einsum("km,kmd->kd", t["cn"], Bn) + np.einsum("km,kmd->kd", t["ct"], Bt)
         Rl = t["wn"] * np.einsum("kmd,kd->km", Bn, h) + t["rl"]
-        RT = t["wt"] * np.einsum("kmd,kd->km", Bt, h) + t["rT"]
+        ht = h if self._h0 is None else h - self._h0          # friction: the step's increment
+        RT = t["wt"] * np.einsum("kmd,kd->km", Bt, ht) + t["rT"]
         R = np.concatenate([Rh, Rl, RT], axis=1)
         live = self.indices >= 0
         f.setValues(self.indices[live].astype(PETSc.IntType), R[live], addv=PETSc.InsertMode.ADD_VALUES)
@@ -262,6 +303,36 @@ class NodalContactProblem(InterfaceProblem):
         K[:, nh + i, nh + i] = t["kl"]
         K[:, nh + m + i, nh + m + i] = t["kT"]
         return K
+
+    def residual_norm(self, F) -> float:
+        """The norm of the residual ``F`` with the rows of the multiplier dofs (weighted
+        gaps and slips, m^2) weighed by E / h into forces (N/m), like the rows of the
+        displacements: sqrt(|R_u|^2 + (E / h)^2 |R_lambda|^2) (all processes).  Without
+        the weight, a gap or slip row violated by a whole interpenetration or slip
+        increment is negligible against the loads, and Newton stops before solving it."""
+        if self._kappa_rows is None:
+            lo, hi = F.getOwnershipRange()
+            g = self.indices[:, self._nh:]
+            g = np.unique(g[(g >= lo) & (g < hi)])
+            self._kappa_rows = (g - lo).astype(np.int64)
+        a = F.getArray(readonly=True)
+        total = float(np.dot(a, a))
+        rows = a[self._kappa_rows]
+        kin = float(np.dot(rows, rows))
+        total, kin = self._mpi.allreduce(np.array([total, kin]))
+        return float(np.sqrt(max(total + (self._kappa ** 2 - 1.0) * kin, 0.0)))
+
+    def friction_settled(self, x) -> bool:
+        """Whether the friction statuses at ``x`` are those its Jacobian used (all
+        processes).  The rows of the conditions are kinematic (m^2): a Newton iterate
+        whose statuses are still changing can have a residual far below the loads'
+        (a stick row violated by a whole slip increment weighs D |slip|), so Newton's
+        convergence also asks for settled statuses (a semi-smooth Newton converges when
+        its active set stops changing)."""
+        if not self.friction:
+            return True
+        slip = self._friction_statuses(x)[0]
+        return not self._mpi.allreduce(bool(np.any((slip != self.slip) & self.slot)), op=MPI.LOR)
 
     def add_matrices(self, J, K) -> None:
         self._op.add_matrices(J, K)
@@ -288,9 +359,8 @@ class NodalContactProblem(InterfaceProblem):
         ve, h, lam, T = self._values(x)
         D = self._mean_divisor()
         gn = self._assembled(np.einsum("kmd,kd->km", self._Bn, h), np.zeros(lam.shape))[0] / D
-        tol_lam = nodal.ROUNDOFF * self._max(lam)
-        tol_gap = nodal.ROUNDOFF * self._max(np.einsum("kvd,kd->kv", np.abs(self._An), np.abs(h))
-                                             / np.maximum(self._Wv, 1e-300))
+        tol_lam = self._lam_zero(lam)
+        tol_gap = nodal.ROUNDOFF * max(self._gap_scale(h), self._floor_gap)
         new = np.where(self.slot, nodal.contact_status(self.chi, lam, gn, tol_lam, tol_gap), 0)
         self._seen_contact.add(self._fingerprint(self.chi))
         new = self._no_cycle(self.chi, new, self._seen_contact)
@@ -348,7 +418,7 @@ class NodalContactProblem(InterfaceProblem):
         combination go back to the extrapolation where it is admissible now, so that
         a switch made far from the solution does not outlive it."""
         back = ~self.extrapolated & ~self._inadmissible(*self._equilibrium_tractions(lam, T),
-                                                        nodal.ROUNDOFF * self._max(lam))
+                                                        self._lam_zero(lam))
         if back.any():
             self.extrapolated |= back
             self._functions()
@@ -359,7 +429,7 @@ class NodalContactProblem(InterfaceProblem):
         ve, h, lam, T = self._values(x)
         self._seen_contact.clear()
         self._seen_slip.clear()
-        target = np.where(self.slot, nodal.threshold(lam, self._max(lam)), 0.0)
+        target = np.where(self.slot, self._threshold(lam), 0.0)
         if self.unbounded or not np.any(self._mpi.allgather(bool(np.count_nonzero(self.s)))):
             self.s = target                            # the first thresholds
         else:
@@ -387,8 +457,8 @@ class NodalContactProblem(InterfaceProblem):
         lam = self._values(x)[2]
         if first:
             return 1.0
-        target = np.where(self.slot, nodal.threshold(lam, self._max(lam)), 0.0)
-        num, den = self._max(np.where(self.slot, target - self.s, 0.0)), self._max(lam)
+        target = np.where(self.slot, self._threshold(lam), 0.0)
+        num, den = self._max(np.where(self.slot, target - self.s, 0.0)), self._lam_scale(lam)
         return num / den if den > 0 else (0.0 if num == 0 else np.inf)
 
     def has_thresholds(self) -> bool:
@@ -415,6 +485,51 @@ class NodalContactProblem(InterfaceProblem):
     def largest_threshold(self) -> float:
         return self._max(self.s)
 
+    # -- load steps -----------------------------------------------------------------
+    def begin_step(self, x, first: bool) -> None:
+        """A new load step from the converged state ``x`` of the previous one.  Statuses,
+        thresholds and dependent-vertex modes carry over; friction becomes incremental
+        (the slip of the step is measured from the jump of ``x``); the thresholds are
+        the contact pressures of ``x``.  ``first``: the first step (nothing changes)."""
+        self._seen_contact.clear()
+        self._seen_slip.clear()
+        self._accelerated = self._threshold_update()
+        if first:
+            return
+        ve, h, lam, T = self._values(x)
+        self._h0 = h.copy()
+        self._floor_lam = max(self._floor_lam, self._max(lam))
+        self._floor_gap = max(self._floor_gap, self._gap_scale(h))
+        if self.friction and not self.unbounded:
+            self.s = np.where(self.slot, self._threshold(lam), 0.0)
+            self._set_rho_T(self._max(self.s))
+            self.carried_thresholds = True
+
+    def state(self) -> dict:
+        """Everything that carries from one step to the next (arrays and numbers), for
+        the step cutting and the checkpoints; :meth:`set_state` puts it back."""
+        return {"chi": self.chi.copy(), "slip": self.slip.copy(), "s": self.s.copy(),
+                "extrapolated": self.extrapolated.copy(), "unbounded": self.unbounded,
+                "free_start": self.free_start, "rho_T": self.rho_T,
+                "h0": None if self._h0 is None else self._h0.copy(),
+                "carried_thresholds": self.carried_thresholds,
+                "floors": np.array([self._floor_lam, self._floor_gap])}
+
+    def set_state(self, st: dict) -> None:
+        self.restore((st["chi"], st["slip"], st["s"], st["extrapolated"], bool(st["unbounded"]),
+                      bool(st["free_start"])))
+        self.rho_T = None if st["rho_T"] is None else float(st["rho_T"])
+        self._h0 = None if st["h0"] is None else np.array(st["h0"], dtype=float)
+        self.carried_thresholds = bool(st["carried_thresholds"])
+        self._floor_lam, self._floor_gap = (float(v) for v in st["floors"])
+        self._seen_contact.clear()
+        self._seen_slip.clear()
+        self._accelerated = self._threshold_update()
+
+    def status_changes(self, st: dict) -> int:
+        """Dofs (all processes) whose contact or friction status differs from ``st``."""
+        return self._count((self.chi != st["chi"]) | (self.slip != st["slip"]))
+
     # -- results --------------------------------------------------------------------
     def vertex_values(self, x, thresholds_from_x=False):
         """Values at the vertices of the segment cells ``(k, nv)``: LAGS_C (Pa), the
@@ -429,7 +544,7 @@ class NodalContactProblem(InterfaceProblem):
         # the traction the equilibrium holds: the dof in stick, mu |s| p in slip
         T = np.where(active & (self.slip != 0), np.where(bounded, bound, 0.0) * self.slip, T)
         if thresholds_from_x:
-            s = np.where(self.slot, nodal.threshold(lam, self._max(lam)), 0.0)
+            s = np.where(self.slot, self._threshold(lam), 0.0)
             bounded = self.slot & (s != 0) & self.friction
         Tv = self._Tv
         uses = np.abs(Tv) > 0

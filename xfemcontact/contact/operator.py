@@ -114,6 +114,8 @@ class InterfaceOperator:
         law = self.law
         assert law is not None                   # point terms: a Gauss-point law
         g, ut, lam, Lam = self.point_fields(self.element_values(x))
+        if state.ut0 is not None:              # friction counts the slip of the load step
+            ut = ut - state.ut0
         s, held = state.s, state.held
         if state.unbounded:
             # held in stick, the solution does not depend on s; mu s = -1 Pa makes

@@ -34,6 +34,15 @@ problem needs, innermost first):
   loops: ``friction_statuses(x)``, ``holding(statuses)`` (a context),
   ``unbound_friction()``, ``snapshot()`` and ``restore(snapshot)``.
 
+Load steps (:mod:`xfemcontact.history`; the contact laws only): ``begin_step(x,
+first)`` starts a step from the converged ``x`` of the previous one (statuses,
+thresholds and multipliers carry over, friction counts the slip from ``x``);
+``state()`` / ``set_state(state)``: everything that carries from a step to the
+next, as arrays and numbers (step cutting, checkpoints); ``status_changes(state)``:
+dofs or points whose statuses differ from ``state``; ``carried_thresholds``: the
+thresholds come from a converged step (the threshold loop may then stop at its
+first iteration).
+
 Results: ``point_values(x)`` (the interface points), ``segment_values(x, xi,
 near)`` (any points of the segments), ``summary()``; read-only facts
 ``segments``, ``points``, ``space``, ``rep_index``, ``phi``, ``mu`` and
@@ -86,10 +95,12 @@ class PointState:
     s: np.ndarray
     held: np.ndarray | None = None
     unbounded: bool = False
+    ut0: np.ndarray | None = None     # tangential jump at the start of the load step (None: 0)
 
     def copy(self) -> PointState:
         return dataclasses.replace(self, chi=self.chi.copy(), s=self.s.copy(),
-                                   held=None if self.held is None else self.held.copy())
+                                   held=None if self.held is None else self.held.copy(),
+                                   ut0=None if self.ut0 is None else self.ut0.copy())
 
 
 class InterfaceProblem:
@@ -102,6 +113,7 @@ class InterfaceProblem:
     loops: tuple[str, ...] = ()
     friction = False
     fallbacks = False
+    carried_thresholds = False
     mu = 0.0
     friction_unknown = "semi-multiplier"     # what the friction dof holds: LAGS_F1, or the traction (Pa)
     indices = None
@@ -122,6 +134,19 @@ class InterfaceProblem:
                                      np.zeros((k, 0), np.int64), self.law, setup.points)
         shape = setup.points.w.shape
         self._state = PointState(np.full(shape, 1 if bonded else 0, dtype=np.int64), np.zeros(shape))
+
+    # -- load steps: nothing carries ---------------------------------------------------
+    def begin_step(self, x, first: bool) -> None:
+        return None
+
+    def state(self) -> dict:
+        return {}
+
+    def set_state(self, st: dict) -> None:
+        return None
+
+    def status_changes(self, st: dict) -> int:
+        return 0
 
     # -- Newton ---------------------------------------------------------------------
     def add_residual(self, x, f) -> None:

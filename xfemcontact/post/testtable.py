@@ -55,6 +55,7 @@ class Outcome:
     ok: bool
     count: int
     at: tuple[float, float] | None = None
+    inst: float | None = None  # the instant tested (cases with [instants]), None otherwise
 
     @property
     def error(self) -> float:
@@ -64,7 +65,8 @@ class Outcome:
         return {"name": self.name, "field": self.field, "type": self.type, "value": self.value,
                 "reference": self.reference, "error": self.error, "tolerance": self.tolerance,
                 "criterion": self.criterion, "ok": self.ok, "samples": self.count,
-                "at": list(self.at) if self.at is not None else None}
+                "at": list(self.at) if self.at is not None else None,
+                **({"inst": self.inst} if self.inst is not None else {})}
 
 
 def _local(test, s, ref_formula):
@@ -139,10 +141,16 @@ def evaluate(tests: Iterable[TestSpec], samples: dict[str, Samples], reference: 
 
 
 def table(outcomes: Iterable[Outcome]) -> list[str]:
-    """The test table as text lines (code_aster-like)."""
-    lines = [f"{'':4} {'test':32} {'computed':>17} {'reference':>17} {'error':>10} {'tolerance':>10} criterion"]
+    """The test table as text lines (code_aster-like); with an instant column when the
+    outcomes name their instants."""
+    outcomes = list(outcomes)
+    timed = any(o.inst is not None for o in outcomes)
+    head = f"{'inst':>10} " if timed else ""
+    lines = [f"{'':4} {head}{'test':32} {'computed':>17} {'reference':>17} {'error':>10} {'tolerance':>10} criterion"]
     for o in outcomes:
         flag = "OK" if o.ok else "NOOK"
+        if timed:
+            flag = f"{flag:4} {o.inst:10.4g}" if o.inst is not None else f"{flag:4} {'':10}"
         if not np.isfinite(o.value):         # nothing to test: say so, not nan / inf
             what = "no point selected" if o.count == 0 else "not finite"
             lines.append(f"{flag:4} {o.name[:32]:32} {what:>17} {o.reference:17.10e} "

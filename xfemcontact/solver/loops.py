@@ -13,7 +13,8 @@ Innermost first:
 * the friction threshold loop (prefix ``friction_``): s <- LAGS_C, until LAGS_C
   changes by less than RESI_FROT relative (``-friction_snes_rtol``), at most
   ITER_FROT_MAXI (``-friction_snes_max_it``); at least two iterations run
-  (the first reference is zero).  Its "norm" is that relative change.
+  (the first reference is zero), except in a load step after the first, whose
+  thresholds come from the previous step's solution.  Its "norm" is that relative change.
 
 Without SEUIL_INIT (or with 0) the first threshold iteration is frictionless,
 as in code_aster.  With statuses frozen that is a linear problem, so its
@@ -282,13 +283,16 @@ class FrictionLoop:
                 snes.setConvergedReason(Reason.DIVERGED_INNER)
                 self.record.friction = k
                 return
-            change = problem.threshold_change(x, first=k == 1)
+            # thresholds carried from a converged load step are a true reference: the
+            # loop may stop at its first iteration; otherwise the first reference is 0
+            carried = problem.carried_thresholds
+            change = problem.threshold_change(x, first=k == 1 and not carried)
             self.record.threshold_changes.append(change)
             snes.setIterationNumber(k)
             snes.setFunctionNorm(change)
             snes.monitor(k, change)
             self.record.friction = k
-            if k > 1 and change < rtol:
+            if (k > 1 or carried) and change < rtol:
                 snes.setConvergedReason(Reason.CONVERGED_FNORM_RELATIVE)
                 return
         snes.setConvergedReason(Reason.DIVERGED_MAX_IT)

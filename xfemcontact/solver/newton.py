@@ -65,11 +65,18 @@ class LoadRelativeTest:
     """SNES convergence test: ``|R| <= rtol * |F_load|`` (2-norms of free dofs).
 
     ``load_norm`` is a callable giving the current load norm; when it is zero
-    the absolute tolerance decides.
+    the absolute tolerance decides.  ``settled`` (optional) is a callable of the
+    iterate: False while the statuses the residual would take at it differ from
+    those its Jacobian used (a semi-smooth Newton has converged only when its
+    active set has stopped changing); Newton then goes on.  ``scaled`` (optional) is
+    a callable of the residual Vec giving the norm the relative test uses instead of
+    the 2-norm (rows of other units weighed into forces).
     """
 
-    def __init__(self, load_norm):
+    def __init__(self, load_norm, settled=None, scaled=None):
         self.load_norm = load_norm
+        self.settled = settled
+        self.scaled = scaled
         self.history = []
 
     def __call__(self, snes, its, norms):
@@ -79,20 +86,26 @@ class LoadRelativeTest:
         ref = self.load_norm()
         if fnorm != fnorm:    # NaN
             return PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN
+        converged = None
         if fnorm <= atol:
-            return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
-        if ref > 0.0 and fnorm <= rtol * ref:
-            return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_RELATIVE
+            converged = PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
+        elif ref > 0.0 and fnorm <= rtol * ref and (
+                self.scaled is None or self.scaled(snes.getFunction()[0]) <= rtol * ref):
+            converged = PETSc.SNES.ConvergedReason.CONVERGED_FNORM_RELATIVE
+        if converged is not None and (self.settled is None or self.settled(snes.getSolution())):
+            return converged
         if its >= max_it:
             return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
         return PETSc.SNES.ConvergedReason.ITERATING
 
 
-def create_snes(comm, residual, jacobian, J, f, resi_glob_rela, iter_glob_maxi, load_norm, prefix=""):
+def create_snes(comm, residual, jacobian, J, f, resi_glob_rela, iter_glob_maxi, load_norm, prefix="",
+                settled=None, scaled=None):
     """A Newton SNES on our callbacks with code_aster's convergence criterion.
 
     ``residual(snes, x, f)`` and ``jacobian(snes, x, J, P)`` follow petsc4py's
-    conventions; ``J`` is the Jacobian matrix, ``f`` a work vector.
+    conventions; ``J`` is the Jacobian matrix, ``f`` a work vector; ``settled``,
+    ``scaled``: see :class:`LoadRelativeTest`.
     """
     set_default_options(prefix)
     snes = PETSc.SNES().create(comm=comm)
@@ -101,7 +114,7 @@ def create_snes(comm, residual, jacobian, J, f, resi_glob_rela, iter_glob_maxi, 
     snes.setFunction(residual, f)
     snes.setJacobian(jacobian, J, J)
     snes.setTolerances(rtol=resi_glob_rela, atol=1e-50, max_it=iter_glob_maxi)
-    test = LoadRelativeTest(load_norm)
+    test = LoadRelativeTest(load_norm, settled, scaled)
     snes.setConvergenceTest(test)
     snes.setFromOptions()
     return snes, test

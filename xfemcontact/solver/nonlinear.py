@@ -38,9 +38,16 @@ class NonlinearSolver:
         newton = model.case.newton
         f = model.layout.create_global_vec()
         self.jacobians = 0
+        settled = scaled = None
+        if getattr(model, "load_steps", False):
+            # load steps: statuses change within Newton at every step; the rows of the
+            # conditions at the dofs are kinematic (m^2) and must be converged as such
+            settled = getattr(model.problem, "friction_settled", None)
+            scaled = getattr(model.problem, "residual_norm", None)
         self.newton, self.newton_test = create_snes(
             self.comm, model.residual, self._jacobian, model.K, f,
-            newton.resi_glob_rela, newton.iter_glob_maxi, lambda: model.load_norm)
+            newton.resi_glob_rela, newton.iter_glob_maxi, lambda: model.load_norm,
+            settled=settled, scaled=scaled)
         self.linear_failure: dict | None = None
         self.linear_warnings: list[str] = []
         self._info: dict | None = None

@@ -1,0 +1,263 @@
+"""Result files of a run with ``[instants]``: the same files as a one-step run, over time.
+
+* ``fields.xdmf`` + ``fields.h5``: an XDMF temporal collection (ParaView animates
+  it): the post-processing mesh once (cut cells as their sub-triangles, interface
+  points duplicated), its point and cell fields at every completed step;
+* ``fields.vtu`` / ``fields.med`` (if asked): the last completed step;
+* ``interface.csv``: the interface table of every completed step, one block of
+  rows per step, with the columns ``inst`` (first) and ``slip_path`` (the
+  accumulated slip: the sum over the steps of |slip increment|, m) besides the
+  one-step columns; reference columns evaluated at each instant;
+* ``plot_history.png``: LAGS_C, LAGS_F1 and the slip against time at five
+  interface points (s = 0, L/4, L/2, 3L/4, L along the first curve), and the
+  load path (each load's mean value over its group against time);
+* the one-step plots and ``report.md`` of the last completed step.
+
+The fields of every step are rebuilt from its checkpoint (solution and contact
+state), so a resumed run writes the same files as an uninterrupted one.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from xfemcontact.output import interface_csv
+
+#: fractions of the first curve's length where the history plot follows the interface
+HISTORY_POINTS = (0.0, 0.25, 0.5, 0.75, 1.0)
+
+
+def write_fields(folder, model, stepper, checkpoints):
+    """fields.xdmf as a time series (and fields.vtu / fields.med at the last step).
+    Collective.  Leaves the model at its last completed step; returns the PostMesh
+    of that step (rank 0) and the names written."""
+    from xfemcontact.post import postmesh
+
+    formats = model.case.output.formats
+    steps = stepper.steps
+    writer = None
+    written = []
+    post = None
+    frames = [(i + 1, s["inst"]) for i, s in enumerate(steps)] or [(0, stepper.time)]
+    try:
+        for index, t in frames:
+            if index:
+                checkpoints.load(model, index)
+                stepper.loads.apply(t)
+            post = postmesh.build(model)
+            if post is None or "xdmf" not in formats:
+                continue
+            m = post.to_meshio()
+            if writer is None:
+                writer = _TimeSeries(folder, "fields.xdmf")
+                writer.mesh(m)
+                written += ["fields.xdmf", "fields.h5"]
+            writer.frame(t, m)
+    finally:
+        if writer is not None:
+            writer.close()
+    if post is not None:
+        import meshio
+
+        if "vtu" in formats:
+            meshio.write(folder.file("fields.vtu"), post.to_meshio(), file_format="vtu")
+            written.append("fields.vtu")
+        if "med" in formats:
+            meshio.write(folder.file("fields.med"), post.to_meshio(med=True), file_format="med")
+            written.append("fields.med")
+    return post, written
+
+
+class _TimeSeries:
+    """meshio's XDMF time-series writer, writing into the output folder with a relative
+    HDF5 path (the folder is renamed afterwards)."""
+
+    def __init__(self, folder, name):
+        import meshio
+
+        self._cwd = os.getcwd()
+        os.chdir(folder.file("."))
+        try:
+            self._writer = meshio.xdmf.TimeSeriesWriter(name, data_format="HDF")
+            self._writer.__enter__()
+        except BaseException:
+            os.chdir(self._cwd)
+            raise
+        os.chdir(self._cwd)
+        self._folder = folder
+
+    def _inside(self, fn, *args):
+        os.chdir(self._folder.file("."))
+        try:
+            return fn(*args)
+        finally:
+            os.chdir(self._cwd)
+
+    def mesh(self, m):
+        self._inside(self._writer.write_points_cells, m.points, m.cells)
+
+    def frame(self, t, m):
+        cell_data = {k: list(v) for k, v in m.cell_data.items()}
+        self._inside(lambda: self._writer.write_data(float(t), point_data=dict(m.point_data),
+                                                      cell_data=cell_data))
+
+    def close(self):
+        self._inside(self._writer.__exit__, None, None, None)
+
+
+def interface_rows(model, stepper):
+    """The interface.csv columns of every completed step (rank 0; None elsewhere or
+    without interface): the last step's table (:func:`interface_csv.build`) gives the
+    row order and the curves, each step its values."""
+    table = interface_csv.build(model)
+    if table is None or model.comm.rank != 0:
+        return table, None
+    steps = [s for s in stepper.steps if "interface" in s]
+    if not steps:
+        return table, None
+    cols = table.columns
+    last = steps[-1]["interface"]
+    where = {(int(c), float(x), float(y)): i for i, (c, x, y) in
+             enumerate(zip(last["cell"], last["x"], last["y"]))}
+    rows = np.array([where.get((int(c), float(x), float(y)), -1)
+                     for c, x, y in zip(cols["cell"], cols["x"], cols["y"])])
+    if (rows < 0).any():          # cannot happen: same points at every step
+        return table, None
+    out = {name: [] for name in ["inst"] + list(interface_csv.COLUMNS) + ["slip_path"]}
+    ref_names = [f for f in interface_csv.REFERENCE_FIELDS if f in model.case.reference]
+    for f in ref_names:
+        out[f + "_ref"], out[f + "_err"] = [], []
+    for step in steps:
+        values = step["interface"]
+        n = len(rows)
+        out["inst"].append(np.full(n, step["inst"]))
+        for name in interface_csv.COLUMNS:
+            if name in ("curve", "s", "x", "y", "cell"):
+                out[name].append(np.asarray(cols[name]))
+            else:
+                out[name].append(np.asarray(values[name], dtype=float)[rows])
+        out["slip_path"].append(np.asarray(values["slip_path"], dtype=float)[rows])
+        for f in ref_names:
+            formula = model.case.reference[f].at(step["inst"])
+            try:
+                ref = np.broadcast_to(np.asarray(formula(x=cols["x"], y=cols["y"]), float),
+                                      (n,)).copy()
+            except Exception:                   # invalid somewhere on the interface
+                ref = np.full(n, np.nan)
+            out[f + "_ref"].append(ref)
+            out[f + "_err"].append(np.asarray(values[f], dtype=float)[rows] - ref)
+    return table, {k: np.concatenate(v) for k, v in out.items()}
+
+
+def write_interface_csv(folder, columns, name="interface.csv"):
+    names = list(columns)
+    data = np.column_stack([np.asarray(columns[c], dtype=float) for c in names])
+    fmt = ["%d" if c in interface_csv.INTEGER_COLUMNS else "%.17g" for c in names]
+    np.savetxt(folder.file(name), data, fmt=fmt, delimiter=",", header=",".join(names), comments="")
+    return [name]
+
+
+def history_figure(stepper, table, title):
+    """LAGS_C, LAGS_F1, slip against time at a few interface points, and the load path."""
+    from matplotlib.figure import Figure
+
+    steps = stepper.steps
+    t0 = stepper.instants.values[0]
+    ts = np.r_[t0, [s["inst"] for s in steps]]
+    panels = []
+    if table is not None and steps and "interface" in steps[-1]:
+        cols = table.columns
+        first = cols["curve"] == cols["curve"].min()
+        s = np.asarray(cols["s"])[first]
+        length = s.max() if len(s) else 0.0
+        last = steps[-1]["interface"]
+        where = {(int(c), float(x), float(y)): i for i, (c, x, y) in
+                 enumerate(zip(last["cell"], last["x"], last["y"]))}
+        picks = []
+        for frac in HISTORY_POINTS:
+            j = int(np.argmin(np.abs(s - frac * length)))
+            row = np.flatnonzero(first)[j]
+            key = (int(cols["cell"][row]), float(cols["x"][row]), float(cols["y"][row]))
+            if key in where and where[key] not in [p[1] for p in picks]:
+                picks.append((row, where[key]))
+        for field, unit in (("LAGS_C", "Pa"), ("LAGS_F1", "-"), ("slip", "m")):
+            lines = []
+            for row, i in picks:
+                v = np.r_[0.0, [st["interface"][field][i] for st in steps]]
+                label = f"s = {cols['s'][row]:.3g} m ({cols['x'][row]:.3g}, {cols['y'][row]:.3g})"
+                lines.append((label, v))
+            panels.append((f"{field} ({unit})", lines))
+    loads = {}
+    for st in steps:
+        for label in st.get("loads", {}):
+            loads.setdefault(label, None)
+    imposed, forces = [], []
+    for label in loads:
+        v = np.r_[np.nan, [st.get("loads", {}).get(label, np.nan) for st in steps]]
+        if not np.any(np.nan_to_num(v)):          # zero at every instant: left out
+            continue
+        (imposed if label.startswith("dirichlet") else forces).append((label, v))
+    if imposed:
+        panels.append(("imposed displacement (m,\nmean over its group)", imposed))
+    if forces:
+        panels.append(("load (N/m, Pa, N/m3,\nmean over its group)", forces))
+    fig = Figure(figsize=(8.0, 2.3 * len(panels)), constrained_layout=True)
+    axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
+    for ax, (ylabel, lines) in zip(axes, panels):
+        for label, v in lines:
+            ax.plot(ts, v, marker="o", ms=3, label=label)
+        ax.set_ylabel(ylabel)
+        ax.grid(True, alpha=0.3)
+        if lines:
+            ax.legend(fontsize=7, loc="best")
+    axes[0].set_title(title.replace("$", r"\$"), fontsize=10)
+    axes[-1].set_xlabel("instant t")
+    return fig
+
+
+def write_outputs(folder, model, stepper, checkpoints, converged, reason, outcomes, warnings=()):
+    """Every result file but results.json (see the module documentation).  Collective;
+    only rank 0 writes.  Returns the summary of the last completed step (rank 0)."""
+    from xfemcontact.output import report, results
+    from xfemcontact.post import plots
+
+    post, files = write_fields(folder, model, stepper, checkpoints)
+    table, columns = interface_rows(model, stepper)
+    summary_now = results.summary(model, converged, reason, outcomes)
+    if model.comm.rank != 0:
+        return summary_now
+    warnings = list(warnings)
+    if columns is not None:
+        files += write_interface_csv(folder, columns)
+    elif table is not None:
+        files += interface_csv.write(folder, table)
+    if table is not None:
+        warnings += table.warnings
+    case = model.case
+    title = case.title if converged else f"{case.title} -- NOT CONVERGED"
+    if case.output.plots:
+        criterion = case.newton.resi_glob_rela * model.load_norm if model.solver else None
+        friction = bool(model.problem is not None and model.problem.friction)
+        resi_frot = case.contact.resi_frot if model.solver and model.solver.record else None
+        at = f"{title} (t = {stepper.time:g})"
+        files += plots.write(folder, at, post=post, table=table,
+                             history=summary_now["residual_history"],
+                             iterations=summary_now["iterations"], criterion=criterion,
+                             resi_frot=resi_frot, young=case.material.E, friction=friction)
+        if stepper.steps:
+            try:
+                fig = history_figure(stepper, table, title)
+                from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+                FigureCanvasAgg(fig)
+                fig.savefig(folder.file("plot_history.png"))
+                files.append("plot_history.png")
+            except (ValueError, IndexError, TypeError, OverflowError, FloatingPointError,
+                    RuntimeError) as exc:
+                import sys
+
+                print(f"warning: plot_history.png not drawn ({type(exc).__name__})", file=sys.stderr,
+                      flush=True)
+    report.write(folder, summary_now, files, case_source=case.source, warnings=warnings)
+    return summary_now
