@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from conftest import CASES, results, run_cli, write_case
-from xfemcontact import resources
+from xfemcontact import preflight, resources
 from xfemcontact.post import plots
 
 SSNV509A = (CASES / "ssnv509a.toml").read_text()
@@ -32,9 +32,9 @@ def test_rectangle_spec_with_refinement():
     class Spec:
         rectangle = {"nx": 10, "ny": 20, "cell": "TRIA6"}
         refine = 2
-    assert resources.rectangle_cells(Spec) == ("TRIA6", 10 * 20 * 2 * 16)
+    assert preflight.rectangle_cells(Spec) == ("TRIA6", 10 * 20 * 2 * 16)
     Spec.rectangle = None
-    assert resources.rectangle_cells(Spec) is None
+    assert preflight.rectangle_cells(Spec) is None
 
 
 def test_a_rectangle_that_cannot_fit_is_refused_at_once(tmp_path):

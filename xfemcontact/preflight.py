@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Any, Iterable, cast
 
 import numpy as np
 
+from xfemcontact import resources
 from xfemcontact.contact import laws
 from xfemcontact.errors import CaseError, FormulaError, GeometryError, MeshError, XfcError
 from xfemcontact.mesh.build import build_raw_mesh
@@ -49,7 +50,7 @@ if TYPE_CHECKING:
     from mpi4py import MPI
     from numpy.typing import ArrayLike, NDArray
 
-    from xfemcontact.case.load import Case, Dirichlet, Traction
+    from xfemcontact.case.load import Case, Dirichlet, MeshSpec, Traction
     from xfemcontact.contact.laws import InterfaceLaw
     from xfemcontact.fem.elements import Element
     from xfemcontact.mesh.raw import RawMesh
@@ -89,6 +90,30 @@ class Preflight:
 
 
 # --- the whole check, collective ----------------------------------------------------------
+
+# -- memory: a generated rectangle refused before it is built -------------------------
+
+def check_case(case: Case, comm: MPI.Comm | None = None) -> resources.Estimate | None:
+    """Check a case whose mesh is a generated rectangle from its spec alone, before the
+    rectangle is built (a mesh file is checked once read: see the module docstring).
+    Collective: every process computes and raises the same."""
+    size = rectangle_cells(case.mesh)
+    if size is None:
+        return None
+    nprocs = comm.size if comm is not None else 1
+    return resources.check_cells(size[0], size[1], nprocs, f"{case.source}: mesh.rectangle")
+
+
+def rectangle_cells(spec: MeshSpec) -> tuple[str, int] | None:
+    """``(cell_type, cells)`` of a case's generated rectangle (refinement included), or
+    None for a mesh file."""
+    rect = spec.rectangle
+    if rect is None:
+        return None
+    cell = rect.get("cell", "QUAD8")
+    per_square = 2 if cell == "TRIA6" else 1
+    return cell, int(rect["nx"]) * int(rect["ny"]) * per_square * 4 ** int(spec.refine or 0)
+
 
 def build_mesh(case: Case, comm: MPI.Comm | None = None) -> RawMesh | None:
     """The case's input mesh on rank 0 (None elsewhere); a failure is a collective MeshError.

@@ -3,7 +3,7 @@ refusal of a case that cannot fit.
 
     est = estimate("QUAD8", 1_000_000, nprocs=1)    # 1000 x 1000 QUAD8
     est.peak_mb                                      # per process, MB
-    check_case(case, comm)                           # CaseError (exit 2) if it cannot fit
+    check_cells("QUAD8", 1_000_000, nprocs=1, where) # CaseError (exit 2) if it cannot fit
 
 The estimate follows the data: cells -> nodes -> dofs (two per node) -> nonzeros of
 the upper triangle of the matrix -> MUMPS factor entries (nested-dissection
@@ -21,7 +21,7 @@ limit of a process (``ulimit -v``, compared with the estimated virtual size of a
 process, which is larger than its resident size).  ``-xfc_memory_limit MB``
 replaces it (``0``: no check).
 
-Where it is called: :func:`check_case` before a generated rectangle is built (from
+Where it is called: :func:`xfemcontact.preflight.check_case` before a generated rectangle is built (from
 its spec alone: a 10000 x 10000 rectangle is refused before a byte of it exists),
 :func:`check_cells` in :func:`xfemcontact.mesh.plex.load` for every mesh before the
 DMPlex is built, and in :func:`xfemcontact.mesh.refine.refine_uniform` before a
@@ -35,10 +35,6 @@ from typing import TYPE_CHECKING, Any
 from xfemcontact.errors import CaseError
 
 if TYPE_CHECKING:
-    from mpi4py import MPI
-    from petsc4py import PETSc
-
-    from xfemcontact.case.load import Case, MeshSpec
     from xfemcontact.errors import XfcError
 
 #: nodes per cell of large meshes (N x N rectangles: QUAD8 3 N^2 + 4 N + 1 nodes for
@@ -107,17 +103,6 @@ def estimate(cell_type: str, cells: int, nprocs: int = 1, nodes: int | None = No
         peak = per + mesh_mb
         total = per * nprocs + mesh_mb
     return Estimate(cell_type, int(cells), nodes, dofs, nnz, factor, int(nprocs), peak, total)
-
-
-def rectangle_cells(spec: MeshSpec) -> tuple[str, int] | None:
-    """``(cell_type, cells)`` of a case's generated rectangle (refinement included), or
-    None for a mesh file."""
-    rect = spec.rectangle
-    if rect is None:
-        return None
-    cell = rect.get("cell", "QUAD8")
-    per_square = 2 if cell == "TRIA6" else 1
-    return cell, int(rect["nx"]) * int(rect["ny"]) * per_square * 4 ** int(spec.refine or 0)
 
 
 # -- what the machine can give -------------------------------------------------------------
@@ -227,17 +212,6 @@ def check_cells(cell_type: str, cells: int, nprocs: int, where: str, nodes: int 
                     f"use a coarser mesh or a machine with more memory (-xfc_memory_limit MB sets the "
                     f"limit, 0 switches this check off)", collective=True)
     return est
-
-
-def check_case(case: Case, comm: MPI.Comm | PETSc.Comm | None = None) -> Estimate | None:
-    """Check a case whose mesh is a generated rectangle from its spec alone, before the
-    rectangle is built (a mesh file is checked once read: see the module docstring).
-    Collective: every process computes and raises the same."""
-    size = rectangle_cells(case.mesh)
-    if size is None:
-        return None
-    nprocs = comm.size if comm is not None else 1
-    return check_cells(size[0], size[1], nprocs, f"{case.source}: mesh.rectangle")
 
 
 def current_nprocs() -> int:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from xfemcontact import options, preflight, resources, timing
+from xfemcontact import options, preflight, timing
 from xfemcontact._petsc import PETSc
 from xfemcontact.case import load_case
 from xfemcontact.errors import ConvergenceError, GeometryError, Interrupted, XfcError
@@ -120,7 +120,7 @@ def run(case_path, outdir=None, overwrite=False, restart=False, quiet=False):
     try:
         from xfemcontact.model import Model
 
-        resources.check_case(case, mpi)       # a rectangle that cannot fit: refused before it is built
+        preflight.check_case(case, mpi)       # a rectangle that cannot fit: refused before it is built
         with timing.phase("mesh"):
             raw = preflight.build_mesh(case, mpi)
         with timing.phase("checks"):

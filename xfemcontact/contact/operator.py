@@ -10,11 +10,13 @@ VecScatter (a merged multiplier may live on another process) and contributions
 are added with ADD_VALUES (PETSc sends the off-process ones).
 
 The operator holds no contact state: statuses and thresholds are a
-:class:`~xfemcontact.contact.problem.PointState` passed to each call, owned by
+:class:`PointState` passed to each call, owned by
 the :class:`~xfemcontact.contact.gauss_problem.GaussContactProblem`.
 """
 from __future__ import annotations
 
+import dataclasses
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
@@ -27,7 +29,6 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from xfemcontact.contact.gauss_point import PointLaw
-    from xfemcontact.contact.problem import PointState
     from xfemcontact.contact.space import MultiplierSpace
     from xfemcontact.dofs.layout import DofLayout
     from xfemcontact.mesh.plex import LocalMesh
@@ -38,6 +39,28 @@ if TYPE_CHECKING:
     IntArray = NDArray[np.int64]
     #: a law's values at the segment ends: ``values(ve, phi, end)`` (see point_values)
     EndValues = Callable[[FloatArray, FloatArray, int], dict[str, FloatArray]]
+
+
+@dataclass
+class PointState:
+    """Contact state at the interface Gauss points ``(k, ng)``.
+
+    ``chi``: contact status (1 in contact); ``s``: friction threshold (Pa,
+    negative in compression); ``held``: friction statuses imposed on the points
+    (0 stick, +-1 slip in that direction, NaN free) or None; ``unbounded``:
+    friction without bound (every point in contact sticks).
+    """
+
+    chi: np.ndarray
+    s: np.ndarray
+    held: np.ndarray | None = None
+    unbounded: bool = False
+    ut0: np.ndarray | None = None     # tangential jump at the start of the load step (None: 0)
+
+    def copy(self) -> PointState:
+        return dataclasses.replace(self, chi=self.chi.copy(), s=self.s.copy(),
+                                   held=None if self.held is None else self.held.copy(),
+                                   ut0=None if self.ut0 is None else self.ut0.copy())
 
 
 class InterfaceOperator:

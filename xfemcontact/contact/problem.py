@@ -51,7 +51,6 @@ near)`` (any points of the segments), ``summary()``; read-only facts
 """
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -59,7 +58,7 @@ import numpy as np
 
 from xfemcontact.contact import gauss_point
 from xfemcontact.contact import space as cspace
-from xfemcontact.contact.operator import InterfaceOperator
+from xfemcontact.contact.operator import InterfaceOperator, PointState
 
 
 @dataclass
@@ -79,28 +78,6 @@ class InterfaceSetup:
     points: Any
     space: Any
     case: Any
-
-
-@dataclass
-class PointState:
-    """Contact state at the interface Gauss points ``(k, ng)``.
-
-    ``chi``: contact status (1 in contact); ``s``: friction threshold (Pa,
-    negative in compression); ``held``: friction statuses imposed on the points
-    (0 stick, +-1 slip in that direction, NaN free) or None; ``unbounded``:
-    friction without bound (every point in contact sticks).
-    """
-
-    chi: np.ndarray
-    s: np.ndarray
-    held: np.ndarray | None = None
-    unbounded: bool = False
-    ut0: np.ndarray | None = None     # tangential jump at the start of the load step (None: 0)
-
-    def copy(self) -> PointState:
-        return dataclasses.replace(self, chi=self.chi.copy(), s=self.s.copy(),
-                                   held=None if self.held is None else self.held.copy(),
-                                   ut0=None if self.ut0 is None else self.ut0.copy())
 
 
 class InterfaceProblem:

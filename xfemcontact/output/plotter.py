@@ -24,13 +24,12 @@ import os
 import pickle
 import subprocess
 import sys
-from typing import TYPE_CHECKING, Any, Iterable, Sequence
+from typing import TYPE_CHECKING, Iterable, Sequence
 
 if TYPE_CHECKING:
     import threading
 
-    #: a plot to draw: (png name, name of the function of xfemcontact.post.plots, its arguments)
-    Job = tuple[str, str, tuple[Any, ...]]
+    from xfemcontact.post.plots import Job
     #: a file or folder name as the callers give it
     PathName = str | os.PathLike[str]
 

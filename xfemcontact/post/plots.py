@@ -18,7 +18,8 @@ iteration record), so a plot can be redrawn from the files.
 from __future__ import annotations
 
 import sys
-from typing import TYPE_CHECKING, Any, Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence
 
 import numpy as np
 
@@ -26,9 +27,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
     from numpy.typing import ArrayLike, NDArray
 
-    from xfemcontact.output.folder import OutputFolder
     from xfemcontact.output.interface_csv import InterfaceTable
-    from xfemcontact.output.plotter import Job
     from xfemcontact.post.postmesh import PostMesh
 
     FloatArray = NDArray[np.float64]
@@ -38,6 +37,17 @@ if TYPE_CHECKING:
     Columns = Mapping[str, NDArray[Any]]
     #: cell blocks of a post mesh: [(meshio cell type, connectivity (k, nn))]
     Blocks = Sequence[tuple[str, IntArray]]
+
+
+#: a plot to draw: (png name, name of a function of this module, its arguments)
+Job = tuple[str, str, tuple[Any, ...]]
+
+
+class Folder(Protocol):
+    """Where the plots go (an :class:`xfemcontact.output.folder.OutputFolder`)."""
+
+    def file(self, name: str) -> Path: ...
+
 
 #: polygon node order of each cell type (vertices and mid-edge nodes around the boundary)
 OUTLINE = {"quad8": [0, 4, 1, 5, 2, 6, 3, 7], "triangle6": [0, 3, 1, 4, 2, 5]}
@@ -544,8 +554,8 @@ def mesh_jobs(title: str, post: PostMesh | None = None, table: InterfaceTable | 
 ORDER = ("plot_multipliers.png", "plot_status.png", "plot_deformed.png", "plot_convergence.png")
 
 
-def run(folder: OutputFolder, jobs: Sequence[Job]) -> list[str]:
-    """Draw ``jobs`` into ``folder`` (an OutputFolder); returns the names written."""
+def run(folder: Folder, jobs: Sequence[Job]) -> list[str]:
+    """Draw ``jobs`` into ``folder`` (an OutputFolder, or anything with ``file(name)``); returns the names written."""
     if not jobs:
         return []
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -566,7 +576,7 @@ def run(folder: OutputFolder, jobs: Sequence[Job]) -> list[str]:
     return written
 
 
-def write(folder: OutputFolder, title: str, post: PostMesh | None = None, table: InterfaceTable | None = None,
+def write(folder: Folder, title: str, post: PostMesh | None = None, table: InterfaceTable | None = None,
           history: Sequence[float] | None = None, iterations: Mapping[str, Any] | None = None,
           criterion: float | None = None, resi_frot: float | None = None, young: float = 0.0,
           friction: bool = True) -> list[str]:
