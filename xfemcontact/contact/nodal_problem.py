@@ -52,6 +52,10 @@ NEGATIVE = -1e-14
 #: after the first load step, pressures below this fraction of the largest one of the
 #: previous steps are zero (see NodalContactProblem._lam_zero)
 HISTORY_ZERO = 1e-9
+#: in a cycle of contact statuses, a dof whose change rests on a pressure or a gap below
+#: this fraction of its scale is degenerate (lambda ~ 0 and gap ~ 0: either status
+#: solves the problem to that accuracy) and keeps its status
+DEGENERATE = 1e-8
 
 
 class NodalContactProblem(InterfaceProblem):
@@ -218,12 +222,17 @@ class NodalContactProblem(InterfaceProblem):
         least = self._mpi.allreduce(int(ids.min(initial=np.iinfo(np.int64).max)), op=MPI.MIN)
         return changed & (self._dof_id == least)
 
-    def _no_cycle(self, old, new, seen):
+    def _no_cycle(self, old, new, seen, degenerate=None):
         """``new`` statuses, or -- when they were met before since ``seen`` was cleared
         (active sets cycle where the Schur complement is no M-matrix) -- ``old`` with
         only the change of least dof id (Murty's least-index rule, which ends for
-        positive definite problems)."""
+        positive definite problems).  ``degenerate (k, m)``: dofs whose change in a
+        cycle is left out (both of their statuses solve the problem to
+        :data:`DEGENERATE`; round-off, amplified by the conditioning, decides
+        between them and would flip them forever)."""
         if self._fingerprint(new) in seen:
+            if degenerate is not None:
+                new = np.where(degenerate, old, new)
             one = self._first_change(new != old)
             new = np.where(one, new, old)
         return new
@@ -363,7 +372,9 @@ class NodalContactProblem(InterfaceProblem):
         tol_gap = nodal.ROUNDOFF * max(self._gap_scale(h), self._floor_gap)
         new = np.where(self.slot, nodal.contact_status(self.chi, lam, gn, tol_lam, tol_gap), 0)
         self._seen_contact.add(self._fingerprint(self.chi))
-        new = self._no_cycle(self.chi, new, self._seen_contact)
+        weak = nodal.contact_status(self.chi, lam, gn, tol_lam * DEGENERATE / nodal.ROUNDOFF,
+                                    tol_gap * DEGENERATE / nodal.ROUNDOFF) == self.chi
+        new = self._no_cycle(self.chi, new, self._seen_contact, degenerate=weak)
         self._seen_slip.clear()
         changed = new != self.chi
         # friction statuses that x contradicts (a Newton solve that started converged,
