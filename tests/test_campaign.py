@@ -163,9 +163,6 @@ SLOW_XFAIL = {
                                  "5e-7 of the slip at every coefficient (sliver conditioning)",
     "limit-D_q8s_a-10_vfit_nu0": "interface 1e-7 h from a vertex, fitted onto it (readjustment rule 2): LAGS_C "
                                  "off by 1.4e-5 and gap by 3e-7 of the slip when the interface slides",
-    "limit-D_q8u3x2_a+20_gen_nu0": "the threshold loop from the sticking start wanders for 16 iterations "
-                                   "(contact loops forced at ITER_CONT_MAXI) before it converges linearly: "
-                                   "change 3.3e-8 at ITER_FROT_MAXI = 30 (416 Newton iterations)",
 }
 SLOW = [pytest.param(c.name, marks=[pytest.mark.slow] + ([xfail(SLOW_XFAIL[c.name])] if c.name in SLOW_XFAIL else []))
         for c in campaign.TABLE if c.name not in set(FAST) | {"stick-D_q8u_a+60_gen_nu3c", "above-R_q8u_a+90_gen_nu0"}]

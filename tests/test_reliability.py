@@ -429,22 +429,46 @@ def test_case_values_refused(tmp_path, edit, expected):
     assert str(info.value) == f"{tmp_path}/case.toml: {expected}"
 
 
-@pytest.mark.parametrize("edit", [("E = 1.0e6", "E = 1.0e300"), ("DY = -1.0e-6", 'DY = "1e200"'),
-                                  ("coef_cont = 1.0e6", "coef_cont = 1.0e300"),
-                                  ("coef_frot = 1000.0", "coef_frot = 1.0e300")],
-                         ids=["E-1e300", "DY-1e200", "coef_cont-1e300", "coef_frot-1e300"])
-def test_nan_residual_writes_results_and_plots_exit_3(tmp_path, edit):
+GAUSS = ("frottement =", 'integration = "GAUSS"\nfrottement =')
+
+
+@pytest.mark.parametrize("edits", [[("E = 1.0e6", "E = 1.0e300")], [("DY = -1.0e-6", 'DY = "1e200"')],
+                                   [("coef_cont = 1.0e6", "coef_cont = 1.0e300"), GAUSS],
+                                   [("coef_frot = 1000.0", "coef_frot = 1.0e300"), GAUSS]],
+                         ids=["E-1e300", "DY-1e200", "coef_cont-1e300-gauss", "coef_frot-1e300-gauss"])
+def test_nan_residual_writes_results_and_plots_exit_3(tmp_path, edits):
     """With plots on, a NaN residual crashed the convergence plot and lost the folder (and
     the COEF_FROT hint of the diagnosis crashed on the conditions at the dofs)."""
-    case = write_case(tmp_path, edited(CONTACT, edit, ("plots = false", "plots = true")))
+    case = write_case(tmp_path, edited(CONTACT, *edits, ("plots = false", "plots = true")))
     out = tmp_path / "out"
     proc = run_cli(["run", case, "-o", out], timeout=TIMEOUT)
     assert proc.returncode == 3, proc.stdout + proc.stderr
     assert "Traceback" not in proc.stderr
     errors = [line for line in proc.stderr.splitlines() if line.startswith("error:")]
-    assert len(errors) == 1 and "no convergence: Newton: the residual is NaN or infinite" in errors[0]
+    assert len(errors) == 1 and "no convergence: Newton" in errors[0]
+    if "coef" not in edits[0][1]:
+        assert "the residual is NaN or infinite" in errors[0]
     assert results(out)["converged"] is False
     assert (out / "plot_deformed.png").is_file()
+
+
+@pytest.mark.parametrize("key, value", [("coef_cont", "1.0e6"), ("coef_frot", "1000.0")])
+def test_absurd_coefficient_scaled_back_with_a_warning(tmp_path, key, value):
+    """At the dofs (NOEUD) the coefficients only scale rows: 1e300 (which overflowed to a
+    NaN residual) is scaled back to 1e8 E/h with a warning, and the answer is that of
+    the nominal coefficient."""
+    nominal = tmp_path / "nominal"
+    assert run_cli(["run", write_case(tmp_path, CONTACT), "-o", nominal], timeout=TIMEOUT).returncode == 0
+    out = tmp_path / "out"
+    proc = run_cli(["run", write_case(tmp_path, edited(CONTACT, (f"{key} = {value}", f"{key} = 1.0e300"))),
+                    "-o", out], timeout=TIMEOUT)
+    assert proc.returncode == 0, proc.stderr
+    assert f"contact.{key} = 1e+300" in proc.stderr and "1e+08 times E/h instead" in proc.stderr
+    assert any(f"contact.{key}" in w for w in results(out)["warnings"])
+    a, b = results(out)["interface"], results(nominal)["interface"]
+    for field in ("LAGS_C", "LAGS_F1", "gap", "slip"):
+        scale = max(np.abs(b[field]).max(), 1e-30)
+        assert np.abs(np.array(a[field]) - np.array(b[field])).max() < 1e-9 * scale, field
 
 
 def test_mathtext_in_title(tmp_path):

@@ -256,7 +256,8 @@ class Model:
 
     def run_warnings(self) -> list[str]:
         """Warnings of the solve (one line each)."""
-        return self.solver.warnings() if self.solver is not None else []
+        found = list(getattr(self.problem, "warnings", None) or [])
+        return found + (self.solver.warnings() if self.solver is not None else [])
 
     def release_factors(self) -> None:
         """Free the factorisation (after the solve): post-processing reuses its memory."""

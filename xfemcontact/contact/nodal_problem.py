@@ -56,6 +56,8 @@ HISTORY_ZERO = 1e-9
 #: this fraction of its scale is degenerate (lambda ~ 0 and gap ~ 0: either status
 #: solves the problem to that accuracy) and keeps its status
 DEGENERATE = 1e-8
+#: the range of the row scales COEF_CONT and mu COEF_FROT |p|, in units of E / h
+ROW_SCALES = (1e-8, 1e8)
 
 
 class NodalContactProblem(InterfaceProblem):
@@ -85,8 +87,10 @@ class NodalContactProblem(InterfaceProblem):
         self._kinematics(mesh.element, setup.points)
         self._dependent_vertices()
         scales = coefficients(setup.case, mesh, setup.geo)
-        self.rho_n, self._coef_frot, self._h = scales.coef_cont, scales.coef_frot, scales.h
+        self.warnings: list[str] = []
+        self._coef_frot, self._h = scales.coef_frot, scales.h
         self._kappa = setup.case.material.E / scales.h     # Pa/m: weighs the rows of the dofs
+        self.rho_n = self._row_scale(scales.coef_cont, "coef_cont", "Pa/m")
         self._kappa_rows = None
         self.rho_T = None                                                 # Pa/m, see _set_rho_T
         shape = self.rep_index.shape
@@ -459,7 +463,25 @@ class NodalContactProblem(InterfaceProblem):
         state unchanged."""
         if self.rho_T is not None or not pressure:
             return
-        self.rho_T = self.rho_n if self._coef_frot is None else self.mu * self._coef_frot * pressure
+        if self._coef_frot is None:
+            self.rho_T = self.rho_n
+        else:
+            self.rho_T = self._row_scale(self.mu * self._coef_frot * pressure, "coef_frot", "1/m",
+                                         given=self._coef_frot)
+
+    def _row_scale(self, rho, key, unit, given=None):
+        """``rho`` (Pa/m), or the nearest bound of ROW_SCALES times E / h with a warning:
+        the coefficients only scale rows, and beyond those bounds the rows they scale
+        sink below round-off (or swamp the others) and the solve loses them."""
+        lo, hi = (self._kappa * f for f in ROW_SCALES)
+        if lo <= rho <= hi:
+            return rho
+        bounded = min(max(rho, lo), hi)
+        self.warnings.append(
+            f"contact.{key} = {given if given is not None else rho:.6g} {unit} scales the rows of the "
+            f"conditions {rho / self._kappa:.3g} times E/h: they are scaled {bounded / self._kappa:.3g} "
+            f"times E/h instead (with integration = \"NOEUD\" the coefficients do not change the answer)")
+        return bounded
 
     def threshold_change(self, x, first: bool = False) -> float:
         """max |LAGS_C - s| / max |LAGS_C| at the dofs: how far the thresholds of the

@@ -101,6 +101,7 @@ class InterfaceProblem:
 
     def __init__(self, setup: InterfaceSetup, bonded: bool = False):
         self.comm = setup.mesh.comm
+        self.warnings: list[str] = []        # of the set-up, one line each
         segs = setup.geo.segments()
         k, nv = len(segs), setup.mesh.element.nv
         self.segments, self.points = segs, setup.points

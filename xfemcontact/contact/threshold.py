@@ -69,6 +69,11 @@ class ThresholdUpdate:
         dS = [b - a for a, b in zip(self.s_hist[:-1], self.s_hist[1:])]
         A = np.array([[self.dot(u, v) for v in dR] for u in dR])
         b = np.array([self.dot(u, r) for u in dR])
+        if not (np.isfinite(A).all() and np.isfinite(b).all()):
+            # an overflowed solve (the residual check of the next Newton reports it):
+            # LAPACK must not see it
+            self.restart()
+            return target
         try:
             gamma = np.linalg.lstsq(A, b, rcond=1e-12)[0]
         except np.linalg.LinAlgError:
