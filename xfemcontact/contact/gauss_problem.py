@@ -10,6 +10,7 @@ sticking, line search, frozen friction statuses).
 from __future__ import annotations
 
 from contextlib import contextmanager
+from typing import TYPE_CHECKING, Any, Iterator
 
 import numpy as np
 
@@ -20,14 +21,39 @@ from xfemcontact.contact.operator import InterfaceOperator
 from xfemcontact.contact.problem import InterfaceProblem, InterfaceSetup, PointState
 from xfemcontact.contact.scales import coefficients
 
+if TYPE_CHECKING:
+    from mpi4py import MPI
+    from numpy.typing import NDArray
+    from petsc4py import PETSc
+
+    from xfemcontact.contact.problem import Remote
+    from xfemcontact.contact.space import MultiplierSpace
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+    #: the fields at the Gauss points (k, ng): gap, tangential jump, LAGS_C, friction dof
+    Fields = tuple[FloatArray, FloatArray, FloatArray, FloatArray]
+
 
 class GaussContactProblem(InterfaceProblem):
     """Unilateral contact with Coulomb friction: code_aster's continuous method at the
     interface Gauss points (:mod:`xfemcontact.contact.gauss_point`)."""
 
     fallbacks = True
+    # facts of the protocol, never None here
+    law: gauss_point.PointLaw
+    indices: IntArray
+    rep_index: IntArray
+    pattern_points: IntArray
+    remote_points: Remote
+    space: MultiplierSpace
+    phi: FloatArray
+    # state that starts unset (None)
+    _natural_frot: float | None
+    _previous_lags_c: FloatArray | None
 
-    def __init__(self, setup: InterfaceSetup):
+    def __init__(self, setup: InterfaceSetup) -> None:
         mesh, c = setup.mesh, setup.case.contact
         self.comm = mesh.comm
         self.segments, self.points, self.space = setup.geo.segments(), setup.points, setup.space
@@ -61,26 +87,26 @@ class GaussContactProblem(InterfaceProblem):
         self._previous_lags_c = None
 
     # -- Newton ---------------------------------------------------------------------
-    def add_residual(self, x, f) -> None:
+    def add_residual(self, x: PETSc.Vec, f: PETSc.Vec) -> None:
         self._op.add_residual(x, f, self._state)
 
-    def tangent(self, x) -> np.ndarray:
+    def tangent(self, x: PETSc.Vec) -> FloatArray:
         return self._op.element_matrices(x, self._state)
 
-    def add_matrices(self, J, K) -> None:
+    def add_matrices(self, J: PETSc.Mat, K: FloatArray) -> None:
         self._op.add_matrices(J, K)
 
-    def add_product(self, K, x, f, scale=1.0) -> None:
+    def add_product(self, K: FloatArray, x: PETSc.Vec, f: PETSc.Vec, scale: float = 1.0) -> None:
         self._op.add_product(K, x, f, scale)
 
     # -- outer loops ----------------------------------------------------------------
-    def _mpi(self):
+    def _mpi(self) -> MPI.Comm:
         return self.comm.tompi4py()
 
-    def _fields(self, x):
+    def _fields(self, x: PETSc.Vec) -> Fields:
         return self._op.point_fields(self._op.element_values(x))
 
-    def update_status(self, x) -> int:
+    def update_status(self, x: PETSc.Vec) -> int:
         """Apply the status test; returns the number of points (all processes) that changed."""
         g, ut, lam, Lam = self._fields(x)
         new = gauss_point.update_status(self.law, self._state.chi, g, lam)
@@ -88,7 +114,7 @@ class GaussContactProblem(InterfaceProblem):
         self._state.chi = new
         return self._mpi().allreduce(changed)
 
-    def update_threshold(self, x) -> np.ndarray:
+    def update_threshold(self, x: PETSc.Vec) -> BoolArray:
         """s <- LAGS_C.  Returns the mask ``(k, ng)`` of points in contact whose friction
         this update switches on or bounds for the first time (threshold zero or
         unbounded before, not zero now)."""
@@ -104,7 +130,7 @@ class GaussContactProblem(InterfaceProblem):
                 self._natural_frot = None
         return (st.chi == 1) & fresh & (st.s != 0)
 
-    def threshold_change(self, x, first: bool = False) -> float:
+    def threshold_change(self, x: PETSc.Vec, first: bool = False) -> float:
         """max |LAGS_C - LAGS_C of the previous call| / max |LAGS_C| over the multiplier
         dofs of every process; 1 when ``first`` (the first threshold iteration: the
         reference is zero).  Collective."""
@@ -119,7 +145,7 @@ class GaussContactProblem(InterfaceProblem):
         den = mpi.allreduce(float(np.abs(lam).max(initial=0.0)), op=MPI.MAX)
         return num / den if den > 0 else (0.0 if num == 0 else np.inf)
 
-    def _lags_c_dofs(self, x):
+    def _lags_c_dofs(self, x: PETSc.Vec) -> FloatArray:
         """LAGS_C dof values of this process's interface elements."""
         ve = self._op.element_values(x)
         nn, nv = self._op.nn, self._op.nv
@@ -129,7 +155,7 @@ class GaussContactProblem(InterfaceProblem):
         """Whether any point has a non-zero friction threshold (collective)."""
         return bool(self._mpi().allreduce(int(np.count_nonzero(self._state.s))))
 
-    def friction_statuses(self, x) -> np.ndarray:
+    def friction_statuses(self, x: PETSc.Vec) -> FloatArray:
         """``(k, ng)`` friction status at ``x``: 0 stick, +-1 slip direction."""
         g, ut, lam, Lam = self._fields(x)
         st = self._state
@@ -138,7 +164,7 @@ class GaussContactProblem(InterfaceProblem):
         return gauss_point.friction_status(self.law, st.chi, st.s, ut, Lam)
 
     @contextmanager
-    def holding(self, statuses):
+    def holding(self, statuses: FloatArray) -> Iterator[None]:
         """Friction statuses imposed on the points for a block (0 stick, +-1 slip,
         NaN: the trial value decides)."""
         self._state.held = statuses
@@ -159,7 +185,7 @@ class GaussContactProblem(InterfaceProblem):
         self._state = snapshot.copy()
 
     # -- load steps -----------------------------------------------------------------
-    def begin_step(self, x, first: bool) -> None:
+    def begin_step(self, x: PETSc.Vec, first: bool) -> None:
         """A new load step from the converged ``x``: statuses carry over, the thresholds
         are the contact pressures of ``x`` at the Gauss points, friction counts the
         tangential jump from that of ``x``.  ``first``: the first step (nothing changes)."""
@@ -173,7 +199,7 @@ class GaussContactProblem(InterfaceProblem):
             self._previous_lags_c = self._lags_c_dofs(x)
             self.carried_thresholds = True
 
-    def state(self) -> dict:
+    def state(self) -> dict[str, Any]:
         st = self._state
         return {"chi": st.chi.copy(), "s": st.s.copy(), "unbounded": st.unbounded,
                 "ut0": None if st.ut0 is None else st.ut0.copy(),
@@ -181,7 +207,7 @@ class GaussContactProblem(InterfaceProblem):
                 "previous_lags_c": None if self._previous_lags_c is None else self._previous_lags_c.copy(),
                 "carried_thresholds": self.carried_thresholds}
 
-    def set_state(self, d: dict) -> None:
+    def set_state(self, d: dict[str, Any]) -> None:
         self._state = PointState(np.array(d["chi"]).astype(np.int64), np.array(d["s"], dtype=float),
                                  None, bool(d["unbounded"]),
                                  None if d["ut0"] is None else np.array(d["ut0"], dtype=float))
@@ -190,7 +216,7 @@ class GaussContactProblem(InterfaceProblem):
         self._previous_lags_c = None if d["previous_lags_c"] is None else np.array(d["previous_lags_c"])
         self.carried_thresholds = bool(d["carried_thresholds"])
 
-    def status_changes(self, d: dict) -> int:
+    def status_changes(self, d: dict[str, Any]) -> int:
         """Interface Gauss points (all processes) whose contact status differs from ``d``."""
         return self._mpi().allreduce(int((self._state.chi != d["chi"]).sum()))
 
@@ -201,7 +227,7 @@ class GaussContactProblem(InterfaceProblem):
         return self._mpi().allreduce(float(np.abs(self._state.s).max(initial=0.0)), op=MPI.MAX)
 
     # -- results --------------------------------------------------------------------
-    def segment_values(self, x, xi, near) -> dict:
+    def segment_values(self, x: PETSc.Vec, xi: FloatArray, near: IntArray) -> dict[str, FloatArray]:
         """LAGS_C, LAGS_F1 ``(k, p)`` at the reference points ``xi (k, p, 2)`` of the
         segment cells, and the statuses "contact", "sliding" ``(k, p)`` of the Gauss
         points ``near (p,)``."""
@@ -218,5 +244,5 @@ class GaussContactProblem(InterfaceProblem):
                 "contact": self._state.chi[:, near].astype(float),
                 "sliding": terms["slip"][:, near].astype(float)}
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
         return self.space.summary()

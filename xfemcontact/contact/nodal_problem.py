@@ -35,6 +35,8 @@ Loops (the protocol of :mod:`xfemcontact.contact.problem`):
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 from mpi4py import MPI
 
@@ -45,6 +47,21 @@ from xfemcontact.contact.operator import InterfaceOperator
 from xfemcontact.contact.problem import InterfaceProblem, InterfaceSetup
 from xfemcontact.contact.scales import coefficients
 from xfemcontact.contact.threshold import ThresholdUpdate
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from xfemcontact.contact.operator import EndValues
+    from xfemcontact.contact.problem import Remote
+    from xfemcontact.contact.space import MultiplierSpace
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+    #: the dof statuses and modes :meth:`NodalContactProblem.restore` takes back
+    Snapshot = tuple[IntArray, FloatArray, FloatArray, BoolArray, bool, bool]
+    #: LAGS_C, T, s, contact, sliding at the vertices of the segment cells, each (k, nv)
+    VertexValues = tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]
 
 #: a weight below this (in absolute value) is taken as zero when looking for
 #: dependent vertices (extrapolations with a negative weight)
@@ -65,8 +82,21 @@ class NodalContactProblem(InterfaceProblem):
 
     fallbacks = False
     friction_unknown = "traction"
+    # facts of the protocol, never None here
+    indices: IntArray
+    rep_index: IntArray
+    pattern_points: IntArray
+    remote_points: Remote
+    space: MultiplierSpace
+    phi: FloatArray
+    # state that starts unset (None)
+    rho_T: float | None
+    _kappa_rows: IntArray | None
+    _h0: FloatArray | None
+    _seen_contact: set[float]
+    _seen_slip: set[float]
 
-    def __init__(self, setup: InterfaceSetup):
+    def __init__(self, setup: InterfaceSetup) -> None:
         mesh, c = setup.mesh, setup.case.contact
         self.comm = mesh.comm
         self._mpi = self.comm.tompi4py()
@@ -286,7 +316,7 @@ class NodalContactProblem(InterfaceProblem):
         return h, nodal.terms(self.chi, slip, active, lam, T, bound, self._Dk, self.rho_n, rho_T)
 
     # -- Newton ---------------------------------------------------------------------
-    def add_residual(self, x, f) -> None:
+    def add_residual(self, x: PETSc.Vec, f: PETSc.Vec) -> None:
         h, t = self._terms(x)
         Bn, Bt = self._Bn, self._Bt
         Rh = np.einsum("km,kmd->kd", t["cn"], Bn) + np.einsum("km,kmd->kd", t["ct"], Bt)
@@ -299,7 +329,7 @@ class NodalContactProblem(InterfaceProblem):
         f.assemblyBegin()
         f.assemblyEnd()
 
-    def tangent(self, x) -> np.ndarray:
+    def tangent(self, x: PETSc.Vec) -> FloatArray:
         """Element tangents ``(k, nd, nd)``; commits the friction statuses of ``x``."""
         h, t = self._terms(x, commit=True)
         Bt = self._Bt
@@ -317,7 +347,7 @@ class NodalContactProblem(InterfaceProblem):
         K[:, nh + m + i, nh + m + i] = t["kT"]
         return K
 
-    def residual_norm(self, F) -> float:
+    def residual_norm(self, F: PETSc.Vec) -> float:
         """The norm of the residual ``F`` with the rows of the multiplier dofs (weighted
         gaps and slips, m^2) weighed by E / h into forces (N/m), like the rows of the
         displacements: sqrt(|R_u|^2 + (E / h)^2 |R_lambda|^2) (all processes).  Without
@@ -335,7 +365,7 @@ class NodalContactProblem(InterfaceProblem):
         total, kin = self._mpi.allreduce(np.array([total, kin]))
         return float(np.sqrt(max(total + (self._kappa ** 2 - 1.0) * kin, 0.0)))
 
-    def friction_settled(self, x) -> bool:
+    def friction_settled(self, x: PETSc.Vec) -> bool:
         """Whether the friction statuses at ``x`` are those its Jacobian used (all
         processes).  The rows of the conditions are kinematic (m^2): a Newton iterate
         whose statuses are still changing can have a residual far below the loads'
@@ -347,10 +377,10 @@ class NodalContactProblem(InterfaceProblem):
         slip = self._friction_statuses(x)[0]
         return not self._mpi.allreduce(bool(np.any((slip != self.slip) & self.slot)), op=MPI.LOR)
 
-    def add_matrices(self, J, K) -> None:
+    def add_matrices(self, J: PETSc.Mat, K: FloatArray) -> None:
         self._op.add_matrices(J, K)
 
-    def add_product(self, K, x, f, scale=1.0) -> None:
+    def add_product(self, K: FloatArray, x: PETSc.Vec, f: PETSc.Vec, scale: float = 1.0) -> None:
         self._op.add_product(K, x, f, scale)
 
     # -- outer loops ----------------------------------------------------------------
@@ -360,7 +390,7 @@ class NodalContactProblem(InterfaceProblem):
         lo, hi = self._y.getOwnershipRange()
         return self._mpi.allreduce(int(((g >= lo) & (g < hi)).sum()))
 
-    def update_status(self, x) -> int:
+    def update_status(self, x: PETSc.Vec) -> int:
         """Contact statuses of the dofs from ``x``, and the switch of dependent vertices
         whose extrapolated values are not admissible; returns the number of dofs and
         vertices that changed (all processes).  In the first threshold iteration
@@ -394,7 +424,7 @@ class NodalContactProblem(InterfaceProblem):
             self._functions()
         return count + switched
 
-    def _equilibrium_tractions(self, lam, T):
+    def _equilibrium_tractions(self, lam: FloatArray, T: FloatArray) -> tuple[FloatArray, FloatArray]:
         """The dof tractions ``(lam, T)`` the equilibrium of the current statuses
         holds: 0 where not in contact, the bound mu |s| p where slipping.  (The dofs
         themselves hold these only to the accuracy of their rows, which rho_n and
@@ -405,7 +435,7 @@ class NodalContactProblem(InterfaceProblem):
             T = np.where(active & (self.slip != 0), bound * self.slip, T)
         return lam, T
 
-    def _inadmissible(self, lam, T, tol_lam):
+    def _inadmissible(self, lam: FloatArray, T: FloatArray, tol_lam: float) -> BoolArray:
         """``(n_dep,)`` whether the extrapolated values of each dependent vertex leave
         the admissible set (lam > 0, threshold > 0, |T| > mu |s|) for the dof
         tractions ``lam``, ``T`` (:meth:`_equilibrium_tractions`) and the current
@@ -438,7 +468,7 @@ class NodalContactProblem(InterfaceProblem):
             self.extrapolated |= back
             self._functions()
 
-    def update_threshold(self, x) -> np.ndarray:
+    def update_threshold(self, x: PETSc.Vec) -> BoolArray:
         """s <- LAGS_C at the dofs and dependent vertices (friction bounded from now on).
         Returns an empty mask: no stick predictor is needed."""
         ve, h, lam, T = self._values(x)
@@ -483,7 +513,7 @@ class NodalContactProblem(InterfaceProblem):
             f"times E/h instead (with integration = \"NOEUD\" the coefficients do not change the answer)")
         return bounded
 
-    def threshold_change(self, x, first: bool = False) -> float:
+    def threshold_change(self, x: PETSc.Vec, first: bool = False) -> float:
         """max |LAGS_C - s| / max |LAGS_C| at the dofs: how far the thresholds of the
         last solve are from its contact pressures (1 when ``first``: the first
         thresholds are SEUIL_INIT or none)."""
@@ -504,11 +534,11 @@ class NodalContactProblem(InterfaceProblem):
         the interface alone); that solve only gives the first thresholds."""
         self.unbounded = True
 
-    def snapshot(self):
+    def snapshot(self) -> Snapshot:
         return (self.chi.copy(), self.slip.copy(), self.s.copy(), self.extrapolated.copy(), self.unbounded,
                 self.free_start)
 
-    def restore(self, snapshot) -> None:
+    def restore(self, snapshot: Snapshot) -> None:
         chi, slip, s, extrapolated, self.unbounded, self.free_start = snapshot
         self.chi, self.slip, self.s = chi.copy(), slip.copy(), s.copy()
         if (extrapolated != self.extrapolated).any():
@@ -519,7 +549,7 @@ class NodalContactProblem(InterfaceProblem):
         return self._max(self.s)
 
     # -- load steps -----------------------------------------------------------------
-    def begin_step(self, x, first: bool) -> None:
+    def begin_step(self, x: PETSc.Vec, first: bool) -> None:
         """A new load step from the converged state ``x`` of the previous one.  Statuses,
         thresholds and dependent-vertex modes carry over; friction becomes incremental
         (the slip of the step is measured from the jump of ``x``); the thresholds are
@@ -538,7 +568,7 @@ class NodalContactProblem(InterfaceProblem):
             self._set_rho_T(self._max(self.s))
             self.carried_thresholds = True
 
-    def state(self) -> dict:
+    def state(self) -> dict[str, Any]:
         """Everything that carries from one step to the next (arrays and numbers), for
         the step cutting and the checkpoints; :meth:`set_state` puts it back."""
         return {"chi": self.chi.copy(), "slip": self.slip.copy(), "s": self.s.copy(),
@@ -548,7 +578,7 @@ class NodalContactProblem(InterfaceProblem):
                 "carried_thresholds": self.carried_thresholds,
                 "floors": np.array([self._floor_lam, self._floor_gap])}
 
-    def set_state(self, st: dict) -> None:
+    def set_state(self, st: dict[str, Any]) -> None:
         self.restore((st["chi"], st["slip"], st["s"], st["extrapolated"], bool(st["unbounded"]),
                       bool(st["free_start"])))
         self.rho_T = None if st["rho_T"] is None else float(st["rho_T"])
@@ -559,12 +589,12 @@ class NodalContactProblem(InterfaceProblem):
         self._seen_slip.clear()
         self._accelerated = self._threshold_update()
 
-    def status_changes(self, st: dict) -> int:
+    def status_changes(self, st: dict[str, Any]) -> int:
         """Dofs (all processes) whose contact or friction status differs from ``st``."""
         return self._count((self.chi != st["chi"]) | (self.slip != st["slip"]))
 
     # -- results --------------------------------------------------------------------
-    def vertex_values(self, x, thresholds_from_x=False):
+    def vertex_values(self, x: PETSc.Vec, thresholds_from_x: bool = False) -> VertexValues:
         """Values at the vertices of the segment cells ``(k, nv)``: LAGS_C (Pa), the
         friction traction T the equilibrium holds (Pa: the dof in stick, mu |s| p in
         slip; 0 where friction is not bounded), the threshold s (Pa; with
@@ -586,20 +616,20 @@ class NodalContactProblem(InterfaceProblem):
                 np.any(uses & (self.chi == 1)[:, None, :], axis=2).astype(float),
                 np.any(uses & (active & (self.slip != 0))[:, None, :], axis=2).astype(float))
 
-    def _end_values(self, x, thresholds_from_x=False):
+    def _end_values(self, x: PETSc.Vec, thresholds_from_x: bool = False) -> EndValues:
         vals = self.vertex_values(x, thresholds_from_x)
         el = self._op.mesh.element
         nodes = self.segments.nodes
 
-        def values(ve, phi, end):
+        def values(ve: FloatArray, phi: FloatArray, end: int) -> dict[str, FloatArray]:
             return _interpolate(el.shape_linear(nodes[:, end]), *vals, self.mu)
         return values
 
-    def segment_values(self, x, xi, near) -> dict:
+    def segment_values(self, x: PETSc.Vec, xi: FloatArray, near: IntArray) -> dict[str, FloatArray]:
         el = self._op.mesh.element
         return _interpolate(el.shape_linear(xi), *self.vertex_values(x), self.mu, points="kp")
 
-    def summary(self) -> dict:
+    def summary(self) -> dict[str, Any]:
         out = dict(self.space.summary())
         out.update({"integration": "NOEUD", "dependent_vertices": self.n_dep,
                     "convex_dependent_vertices": int((~self.extrapolated).sum()),
@@ -607,7 +637,8 @@ class NodalContactProblem(InterfaceProblem):
         return out
 
 
-def _interpolate(lin, lam, T, s, chi, sliding, mu, points="k"):
+def _interpolate(lin: FloatArray, lam: FloatArray, T: FloatArray, s: FloatArray, chi: FloatArray,
+                 sliding: FloatArray, mu: float, points: str = "k") -> dict[str, FloatArray]:
     """Point values from vertex values ``(k, nv)`` with the linear functions ``lin``
     (``(k, nv)`` or ``(k, p, nv)``, all >= 0): LAGS_C = lam(x); LAGS_F1 = T(x) /
     (mu s(x)), the traction over the interpolated threshold (code_aster's

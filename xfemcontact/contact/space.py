@@ -133,10 +133,10 @@ class MultiplierSpace:
 
     ids: IntArray              # sorted global ids of every carrying vertex (all processes)
     rep: IntArray              # representative global id of each
-    topo: SegmentTopology | None   # of this process's segments (None: an empty space)
+    topo: SegmentTopology      # of this process's segments
     carriers_of: IntArray      # (k, m) carrier global ids used by each segment cell (-1 pad)
     T: FloatArray              # (k, nv, m) vertex values = T @ carrier values
-    T_convex: FloatArray | None = None  # (k, nv, m) the same with weak vertices as convex combinations
+    T_convex: FloatArray       # (k, nv, m) the same with weak vertices as convex combinations
     n_packets: int = 0
     n_ties: int = 0
     n_weak: int = 0

@@ -204,6 +204,8 @@ def interface_samples(model: Model) -> Columns | None:
     xi, x, _ = segment_curve(el, mesh.x[mesh.cell_nodes[segs.cells]], segs.nodes, SEGMENT_POINTS)
     near = np.argmin(np.abs(problem.points.s[None, :] - SEGMENT_POINTS[:, None]), axis=1)   # (5,)
     v = problem.segment_values(model.x, xi, near)
+    if v is None:                       # no multipliers (not a contact problem)
+        return None
     out = {"x": x[..., 0].ravel(), "y": x[..., 1].ravel(),
            "cell": np.repeat(mesh.cell_ids[segs.cells], len(SEGMENT_POINTS))}
     out.update({k: a.ravel() for k, a in v.items()})

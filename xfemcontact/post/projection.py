@@ -31,8 +31,9 @@ def _gathered_system(model: Model,
                      values: list[FloatArray]) -> tuple[IntArray, Any, list[NDArray[Any]]]:
     """Mass matrix of the carriers' traces and right-hand sides of ``values`` (list of
     (k, ng) arrays at the interface Gauss points), summed over every process."""
-    # a contact problem (multipliers): phi and rep_index are not in the InterfaceProblem protocol
-    problem: Any = model.problem
+    problem = model.problem
+    # a contact problem (multipliers): it has phi and rep_index
+    assert problem is not None and problem.phi is not None and problem.rep_index is not None
     w, phi = problem.points.w, problem.phi                      # (k, ng), (k, ng, m)
     dof = problem.rep_index                                      # (k, m) global LAGS_C index
     M = np.einsum("kq,kqa,kqb->kab", w, phi, phi)
@@ -67,7 +68,8 @@ def best_errors(model: Model, lags_c: Formula, lags_f1: Formula) -> dict[str, fl
     """
     from mpi4py import MPI      # initialised by PETSc by now (see _petsc: PML choice first)
 
-    problem: Any = model.problem          # a contact problem (see _gathered_system)
+    problem = model.problem
+    assert problem is not None            # a contact problem (see _gathered_system)
     xg = problem.points.x
     c = lags_c(x=xg[..., 0], y=xg[..., 1])
     f = lags_f1(x=xg[..., 0], y=xg[..., 1])

@@ -50,10 +50,10 @@ def coef_frot_hint(model: Model) -> str:
     """
     from mpi4py import MPI
 
-    problem: Any                # the Gauss-point problem's law, largest_threshold: not in the protocol
     problem, mesh = model.problem, model.mesh
-    law = problem.law
-    if not problem.fallbacks or law.unknown == "traction":   # only the Gauss-point form has a trial value
+    law = problem.law if problem is not None else None
+    # only the Gauss-point form has a trial value
+    if problem is None or law is None or not problem.fallbacks or law.unknown == "traction":
         return ""
     mpi = model.comm.tompi4py()
     xv = mesh.x[mesh.cell_nodes[:, :mesh.element.nv]]
