@@ -15,6 +15,8 @@ in :data:`xfemcontact.timing.TIMINGS`.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 
 from xfemcontact import preflight
@@ -34,6 +36,22 @@ from xfemcontact.solver.nonlinear import NonlinearSolver
 from xfemcontact.timing import phase, release_heap
 from xfemcontact.xfem import geometry, integration, levelset
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from xfemcontact.case.load import Case
+    from xfemcontact.contact.problem import InterfaceProblem
+    from xfemcontact.contact.space import MultiplierSpace
+    from xfemcontact.mesh.plex import LocalMesh
+    from xfemcontact.mesh.raw import RawMesh
+    from xfemcontact.post.fields import PointValues
+    from xfemcontact.post.testtable import Samples
+    from xfemcontact.xfem.geometry import Geometry
+    from xfemcontact.xfem.integration import SegmentPoints
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+
 __all__ = ["Model", "build_raw_mesh"]
 
 
@@ -50,10 +68,29 @@ class Model:
     :meth:`solve`), ``warnings`` (lines of the set-up).
     """
 
-    def __init__(self, case, raw=None, comm=None):
+    case: Case
+    comm: PETSc.Comm
+    warnings: list[str]
+    mesh: LocalMesh
+    D: FloatArray
+    geo: Geometry | None
+    law: laws.InterfaceLaw | None
+    layout: DofLayout
+    x_bc: FloatArray                  # local work array of the imposed values
+    problem: InterfaceProblem | None
+    K: PETSc.Mat
+    f0: PETSc.Vec
+    load_norm: float
+    x: PETSc.Vec
+    solver: NonlinearSolver | None
+    load_steps: bool                  # solved in load steps (xfemcontact.history)
+    _K_int: FloatArray | None
+    _bulk_kept: bool
+
+    def __init__(self, case: Case, raw: RawMesh | None = None, comm: PETSc.Comm | None = None) -> None:
         self.case = case
         self.comm = comm or PETSc.COMM_WORLD
-        self.warnings: list[str] = []
+        self.warnings = []
         with phase("mesh"):
             if raw is None and self.comm.rank == 0:
                 raw = build_raw_mesh(case)
@@ -62,6 +99,7 @@ class Model:
                 from xfemcontact.mesh.partition import cut_cell_weights
 
                 itf = case.interface
+                assert raw is not None               # rank 0 has the input mesh
                 weights = cut_cell_weights(raw, itf.level_set if itf is not None else None)
             self.mesh = plex.load(raw, self.comm, weights)
             case.check_groups(self.mesh.group_names())
@@ -69,21 +107,22 @@ class Model:
         self.D = hooke(mat.E, mat.nu, mat.model)
         with phase("levelset"):
             self.geo = self._geometry()
-        self.law = laws.get(case.interface.law) if self.geo is not None else None
+        itf = case.interface             # a geometry means an interface
+        self.law = laws.get(itf.law) if self.geo is not None and itf is not None else None
         with phase("layout"):
             self._layout()
         with phase("assembly"):
             self._assemble()
         self.x = self.layout.create_global_vec()
         self.x.set(0.0)
-        self.solver: NonlinearSolver | None = None
+        self.solver = None
 
     @classmethod
-    def from_case(cls, case, raw=None) -> Model:
+    def from_case(cls, case: Case, raw: RawMesh | None = None) -> Model:
         return cls(case, raw)
 
     # -- set-up -------------------------------------------------------------
-    def _geometry(self):
+    def _geometry(self) -> Geometry | None:
         itf = self.case.interface
         if itf is None:
             return None
@@ -103,15 +142,17 @@ class Model:
             return None
         return geometry.build(mesh, phi)
 
-    def _layout(self):
+    def _layout(self) -> None:
         mesh, geo, law = self.mesh, self.geo, self.law
         x = mesh.x
         fixed, values = constraints.fixed_components(
             mesh, self.case, geo, law, lambda nodes, f: f(x=x[nodes, 0], y=x[nodes, 1]))
         enriched = geo.enriched if geo is not None else np.zeros(len(x), bool)
         multiplier = np.zeros(len(x), bool)
-        space = points = None
+        space: MultiplierSpace | None = None
+        points: SegmentPoints | None = None
         if geo is not None:
+            assert law is not None                  # an interface has its law
             segs = geo.segments()
             xc = x[mesh.cell_nodes[segs.cells]]
             points = integration.segment_points(mesh.element, xc, segs, self._interface_order(xc),
@@ -123,9 +164,10 @@ class Model:
         self.x_bc = system.bc_array(self.layout, fixed, values)
         self.problem = None
         if geo is not None:
+            assert law is not None and points is not None      # set above
             self.problem = law.problem(InterfaceSetup(mesh, geo, self.layout, points, space, self.case))
 
-    def _interface_order(self, xc):
+    def _interface_order(self, xc: FloatArray) -> int:
         """Gauss points per interface segment: ``[contact] ordre_int``, else 4 (code_aster's)
         when every cut cell of every process is affine, 8 otherwise (on a distorted
         quadrangle the shape functions are rational along the interface: 4 points
@@ -140,7 +182,7 @@ class Model:
         distorted = bool(len(xc)) and not affine_cells(self.mesh.element, xc).all()
         return 8 if self.comm.tompi4py().allreduce(distorted, op=MPI.LOR) else 4
 
-    def _assemble(self):
+    def _assemble(self) -> None:
         mesh, geo, layout, problem = self.mesh, self.geo, self.layout, self.problem
         blocks, remote = [mesh.cell_nodes], None
         if problem is not None and problem.pattern_points is not None:
@@ -148,7 +190,7 @@ class Model:
             remote = problem.remote_points
         self.K = pattern.create_matrix(layout, blocks, remote, symmetric=matrix_format() == "sbaij")
         if problem is not None and problem.indices is not None:
-            self._zero_interface_pattern(self.K)
+            self._zero_interface_pattern(self.K, problem.indices)
         lift = layout.local_array()
         system.assemble_bulk(mesh, geo, layout, self.D, self.K, lift, self.x_bc)
         self.K.assemble()
@@ -163,16 +205,17 @@ class Model:
         self._bulk_kept = False
         self.load_steps = False            # solved in load steps (xfemcontact.history)
 
-    def _zero_interface_pattern(self, A):
-        """Explicit zeros on every interface coupling, so the pattern never changes."""
-        g = self.problem.indices.astype(PETSc.IntType)
+    def _zero_interface_pattern(self, A: PETSc.Mat, indices: IntArray) -> None:
+        """Explicit zeros on every interface coupling (the global dofs ``indices`` of the
+        interface elements), so the pattern never changes."""
+        g = indices.astype(PETSc.IntType)
         if len(g) == 0:           # petsc4py divides by the batch size
             return
         A.setValuesRCV(g, g, np.zeros((len(g), g.shape[1], g.shape[1])),
                        addv=PETSc.InsertMode.ADD_VALUES)
 
     # -- Newton callbacks -----------------------------------------------------
-    def residual(self, snes, x, f):
+    def residual(self, snes: PETSc.SNES, x: PETSc.Vec, f: PETSc.Vec) -> None:
         """R(x) = K_bulk x + f0 + R_interface(x), with K_bulk x = K x - K_int x."""
         self.K.mult(x, f)
         f.axpy(1.0, self.f0)
@@ -181,7 +224,7 @@ class Model:
                 self.problem.add_product(self._K_int, x, f, -1.0)
             self.problem.add_residual(x, f)
 
-    def jacobian(self, snes, x, J, P):
+    def jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         """J = K_bulk + K_int(x): replace the previous interface tangent in place.
 
         When no process's interface tangent changed, J is not touched: PETSc then
@@ -206,7 +249,7 @@ class Model:
         self._K_int = new
         J.assemble()
 
-    def keep_bulk_values(self):
+    def keep_bulk_values(self) -> None:
         """Keep a copy of the bulk matrix values (PETSc MatStoreValues) so that every new
         interface tangent replaces the previous one exactly: the Jacobian is then a
         function of the tangent alone, not of the tangents before it, and a run resumed
@@ -219,11 +262,11 @@ class Model:
         self.K.storeValues()
         self._bulk_kept = True
 
-    def interface_tangent(self):
+    def interface_tangent(self) -> FloatArray | None:
         """The interface element tangents in the Jacobian now (None: none yet)."""
         return self._K_int
 
-    def set_interface_tangent(self, K):
+    def set_interface_tangent(self, K: FloatArray | None) -> None:
         """Put the interface tangents ``K`` into the Jacobian (a run resumed from a
         checkpoint: the Jacobian of the step it stopped at), with the bulk values kept
         by :meth:`keep_bulk_values`."""
@@ -235,14 +278,14 @@ class Model:
         self.K.assemble()
         self._K_int = K
 
-    def set_loads(self, x_bc, f0, load_norm):
+    def set_loads(self, x_bc: FloatArray, f0: PETSc.Vec, load_norm: float) -> None:
         """The loads of another instant (:mod:`xfemcontact.history.loading`): imposed
         values ``x_bc`` (local work array), ``f0`` (global Vec) and the reference of
         Newton's relative criterion ``load_norm``.  The bulk matrix does not change."""
         self.x_bc, self.f0, self.load_norm = x_bc, f0, load_norm
 
     # -- solve --------------------------------------------------------------
-    def solve(self):
+    def solve(self) -> int:
         """Newton (inside the outer loops of the interface problem, if any); returns the
         outermost SNES converged reason (> 0 converged).  Called again (the next load
         step), it reuses the solver: its record goes on, and a tangent that has not
@@ -264,20 +307,20 @@ class Model:
         if self.solver is not None:
             self.solver.release()
 
-    def solver_info(self) -> dict | None:
+    def solver_info(self) -> dict[str, Any] | None:
         """Linear solver facts (see :meth:`NonlinearSolver.info`), None before :meth:`solve`."""
         return self.solver.info() if self.solver is not None else None
 
     # -- results ------------------------------------------------------------
-    def local_solution(self):
+    def local_solution(self) -> FloatArray:
         """Local work array of the solution, imposed values included."""
         return system.global_to_local(self.layout, self.x, self.x_bc)
 
-    def interface_values(self) -> dict | None:
+    def interface_values(self) -> dict[str, NDArray[Any]] | None:
         """Interface point values of this process (see InterfaceProblem.point_values)."""
         return self.problem.point_values(self.x) if self.problem is not None else None
 
-    def interface_samples(self) -> dict:
+    def interface_samples(self) -> dict[str, Samples]:
         """Samples of the interface fields for test tables."""
         from xfemcontact.post.testtable import Samples
 
@@ -286,8 +329,10 @@ class Model:
             return {}
         return {"interface": Samples(v["x"], v["y"], {k: v[k] for k in ("LAGS_C", "LAGS_F1", "gap", "slip")})}
 
-    def displacement(self):
+    def displacement(self) -> FloatArray:
+        """``(n, 2)`` DX, DY at this process's nodes, m."""
         return fields.nodal_displacement(self.layout, self.local_solution())
 
-    def stresses(self):
+    def stresses(self) -> list[PointValues]:
+        """Stresses at the quadrature points of every local cell."""
         return fields.quadrature_stresses(self.mesh, self.geo, self.layout, self.D, self.local_solution())
