@@ -49,11 +49,20 @@ that sticks everywhere converges at that step without another factorisation.
 
 ``-contact_snes_monitor`` / ``-friction_snes_monitor`` print them.
 """
+from __future__ import annotations
+
 from contextlib import contextmanager
+from typing import TYPE_CHECKING, Any, Iterator, Protocol
 
 import numpy as np
 
 from xfemcontact._petsc import PETSc
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from xfemcontact.case.load import Contact
+    from xfemcontact.contact.problem import InterfaceProblem
 
 Reason = PETSc.SNES.ConvergedReason
 
@@ -80,19 +89,32 @@ INEXACT_ABOVE = 0.1
 class LoopRecord:
     """Iteration counts of every loop, for results.json."""
 
-    def __init__(self):
-        self.newton = []           # Newton iterations of every Newton solve
-        self.contact = []          # status iterations of every contact loop
+    def __init__(self) -> None:
+        self.newton: list[int] = []           # Newton iterations of every Newton solve
+        self.contact: list[int] = []          # status iterations of every contact loop
         self.friction = 0
-        self.newton_predictor = []  # Newton iterations (0 or 1) of every stick predictor
+        self.newton_predictor: list[int] = []  # Newton iterations (0 or 1) of every stick predictor
         self.line_search_retries = 0  # full-step Newton solves redone with a line search
         self.frozen_solves = 0     # Newton solves with frozen friction statuses
-        self.status_changes = []   # changes after every Newton solve
-        self.threshold_changes = []
-        self.warnings = []
+        self.status_changes: list[int] = []   # changes after every Newton solve
+        self.threshold_changes: list[float] = []
+        self.warnings: list[str] = []
 
 
-def _python_snes(comm, prefix, context, max_it, rtol=0.0):
+class Solver(Protocol):
+    """What the loops use of their :class:`~xfemcontact.solver.nonlinear.NonlinearSolver`
+    (which imports this module)."""
+
+    newton: PETSc.SNES
+    record: LoopRecord | None           # not None when the problem has loops
+    linear_failure: dict[str, Any] | None
+    linear_warnings: list[str]
+
+    def info(self) -> dict[str, Any]: ...
+
+
+def _python_snes(comm: PETSc.Comm, prefix: str, context: ContactLoop | FrictionLoop, max_it: int,
+                 rtol: float = 0.0) -> PETSc.SNES:
     snes = PETSc.SNES().create(comm=comm)
     snes.setOptionsPrefix(prefix)
     snes.setType(PETSc.SNES.Type.PYTHON)
@@ -104,17 +126,18 @@ def _python_snes(comm, prefix, context, max_it, rtol=0.0):
 class ContactLoop:
     """Status fixed point around Newton."""
 
-    def __init__(self, solver, problem):
+    def __init__(self, solver: Solver, problem: InterfaceProblem) -> None:
+        assert solver.record is not None             # the solver of a problem with loops has one
         self.solver, self.problem = solver, problem
         self.newton, self.record = solver.newton, solver.record
         self.retry = True            # off while the frictionless start is being tried
         self.budget = None           # fewer status iterations (an inexact threshold iteration)
         self.truncated = False       # the last solve stopped at its budget
 
-    def view(self, snes, viewer):
+    def view(self, snes: PETSc.SNES, viewer: PETSc.Viewer) -> None:
         viewer.printfASCII("contact status loop (code_aster ITER_CONT_MAXI)\n")
 
-    def solve(self, snes, b, x):
+    def solve(self, snes: PETSc.SNES, b: PETSc.Vec | None, x: PETSc.Vec) -> None:
         problem, newton = self.problem, self.newton
         max_it = snes.getTolerances()[3]
         self.truncated = False
@@ -149,7 +172,7 @@ class ContactLoop:
         else:
             snes.setConvergedReason(Reason.DIVERGED_MAX_IT)
 
-    def _newton(self, x):
+    def _newton(self, x: PETSc.Vec) -> None:
         """Newton from ``x``.  With friction, a full-step Newton that fails is redone once
         from the same start with a backtracking line search (module docstring)."""
         newton = self.newton
@@ -174,7 +197,7 @@ class ContactLoop:
         start.copy(x)
         self._frozen_statuses(x)
 
-    def _frozen_statuses(self, x):
+    def _frozen_statuses(self, x: PETSc.Vec) -> None:
         """Newton with the friction statuses frozen (each solve is then linear), the
         statuses updated from the result until they stop changing, then Newton with
         the real law from there.  A point that has changed ``MAX_FLIPS`` times keeps
@@ -203,12 +226,12 @@ class ContactLoop:
                             "a line search (points at the stick/slip limit); it converged with the "
                             "friction statuses frozen in Newton and updated between solves")
 
-    def _warn_once(self, text):
+    def _warn_once(self, text: str) -> None:
         if text not in self.record.warnings:
             self.record.warnings.append(text)
 
 
-def solve_newton(solver, x):
+def solve_newton(solver: Solver, x: PETSc.Vec) -> None:
     """``solver.newton.solve`` from ``x``; a failed factorisation is dropped after it.
 
     When MUMPS fails (a numerically singular matrix, INFOG(1) = -10) PETSc 3.18's
@@ -242,7 +265,7 @@ def solve_newton(solver, x):
             f"-mat_mumps_icntl_14 was raised to {relaxation} % and the factorisation redone")
 
 
-def _raise_workspace(newton):
+def _raise_workspace(newton: PETSc.SNES) -> int:
     """Double MUMPS' memory relaxation ICNTL(14) (percent, default 20) in the options
     database for the next factorisation of ``newton``; returns the new value."""
     opts = PETSc.Options()
@@ -252,7 +275,7 @@ def _raise_workspace(newton):
     return value
 
 
-def _line_search(snes, kind=None):
+def _line_search(snes: PETSc.SNES, kind: str | None = None) -> str:
     """The line search type of ``snes`` in the options database; with ``kind``, set it
     first (petsc4py 3.18 has no SNESLineSearch object: through the options)."""
     opts, key = PETSc.Options(), snes.getOptionsPrefix() + "snes_linesearch_type"
@@ -263,7 +286,8 @@ def _line_search(snes, kind=None):
 
 
 @contextmanager
-def _newton_settings(newton, max_it=None, line_search=None):
+def _newton_settings(newton: PETSc.SNES, max_it: int | None = None,
+                     line_search: str | None = None) -> Iterator[None]:
     """Newton with at most ``max_it`` iterations and/or another line search for a
     block, restored after it."""
     old_it, old_search = newton.getTolerances()[3], _line_search(newton)
@@ -282,14 +306,15 @@ def _newton_settings(newton, max_it=None, line_search=None):
 class FrictionLoop:
     """Threshold fixed point around the contact loop."""
 
-    def __init__(self, solver, problem, contact):
+    def __init__(self, solver: Solver, problem: InterfaceProblem, contact: PETSc.SNES) -> None:
+        assert solver.record is not None             # the solver of a problem with loops has one
         self.solver, self.problem, self.contact = solver, problem, contact
         self.record = solver.record
 
-    def view(self, snes, viewer):
+    def view(self, snes: PETSc.SNES, viewer: PETSc.Viewer) -> None:
         viewer.printfASCII("friction threshold loop (code_aster ITER_FROT_MAXI, RESI_FROT)\n")
 
-    def solve(self, snes, b, x):
+    def solve(self, snes: PETSc.SNES, b: PETSc.Vec | None, x: PETSc.Vec) -> None:
         problem = self.problem
         rtol, _, _, max_it = snes.getTolerances()
         loop = self.contact.getPythonContext()
@@ -333,7 +358,7 @@ class FrictionLoop:
                 return
         snes.setConvergedReason(Reason.DIVERGED_MAX_IT)
 
-    def _first_iteration(self, x):
+    def _first_iteration(self, x: PETSc.Vec) -> None:
         """The contact loop with the initial thresholds; a frictionless start that
         finds no equilibrium is redone with friction unbounded (module docstring)."""
         problem, newton = self.problem, self.solver.newton
@@ -359,7 +384,7 @@ class FrictionLoop:
             "sticking (give seuil_init, the expected contact pressure, to start bounded)")
         self.contact.solve(None, x)
 
-    def _stick_predictor(self, held, x):
+    def _stick_predictor(self, held: NDArray[np.bool_], x: PETSc.Vec) -> None:
         """One Newton step with the points ``held`` (mask) in the stick branch."""
         newton = self.solver.newton
         with self.problem.holding(np.where(held, 0.0, np.nan)), _newton_settings(newton, max_it=1):
@@ -367,9 +392,10 @@ class FrictionLoop:
         self.record.newton_predictor.append(newton.getIterationNumber())
 
 
-def create_loops(solver, problem, case_contact):
+def create_loops(solver: Solver, problem: InterfaceProblem,
+                 case_contact: Contact) -> tuple[PETSc.SNES | None, PETSc.SNES | None]:
     """The SNES of the outer loops ``problem.loops`` needs: ``(outermost, contact)``,
-    both None without loops."""
+    both None without loops; ``case_contact``: the case's ``[contact]`` table."""
     if "contact" not in problem.loops:
         return None, None
     comm = problem.comm

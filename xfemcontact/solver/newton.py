@@ -17,8 +17,11 @@ displacements), so that a Newton solve that starts converged stops at once
 without factorising.  ``-snes_rtol`` overrides RESI_GLOB_RELA, ``-snes_max_it``
 ITER_GLOB_MAXI; ``-snes_atol`` still applies.
 """
+from __future__ import annotations
+
 import difflib
 import re
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -34,7 +37,7 @@ DEFAULT_OPTIONS = {
 }
 
 
-def set_default_options(prefix=""):
+def set_default_options(prefix: str = "") -> None:
     """Put our defaults in the options database where the user gave nothing."""
     opts = PETSc.Options()
     for key, value in DEFAULT_OPTIONS.items():
@@ -46,7 +49,7 @@ def set_default_options(prefix=""):
 SYMMETRIC_PCS = ("cholesky", "icc")
 
 
-def matrix_format(prefix=""):
+def matrix_format(prefix: str = "") -> str:
     """``"sbaij"`` or ``"aij"``: the Jacobian's storage (see the module docstring)."""
     set_default_options(prefix)
     opts = PETSc.Options()
@@ -73,13 +76,14 @@ class LoadRelativeTest:
     the 2-norm (rows of other units weighed into forces).
     """
 
-    def __init__(self, load_norm, settled=None, scaled=None):
+    def __init__(self, load_norm: Callable[[], float], settled: Callable[[PETSc.Vec], bool] | None = None,
+                 scaled: Callable[[PETSc.Vec], float] | None = None) -> None:
         self.load_norm = load_norm
         self.settled = settled
         self.scaled = scaled
-        self.history = []
+        self.history: list[float] = []
 
-    def __call__(self, snes, its, norms):
+    def __call__(self, snes: PETSc.SNES, its: int, norms: tuple[float, float, float]) -> int:
         xnorm, ynorm, fnorm = norms
         self.history.append(fnorm)
         rtol, atol, stol, max_it = snes.getTolerances()
@@ -99,8 +103,12 @@ class LoadRelativeTest:
         return PETSc.SNES.ConvergedReason.ITERATING
 
 
-def create_snes(comm, residual, jacobian, J, f, resi_glob_rela, iter_glob_maxi, load_norm, prefix="",
-                settled=None, scaled=None):
+def create_snes(comm: PETSc.Comm, residual: Callable[[PETSc.SNES, PETSc.Vec, PETSc.Vec], None],
+                jacobian: Callable[[PETSc.SNES, PETSc.Vec, PETSc.Mat, PETSc.Mat], None],
+                J: PETSc.Mat, f: PETSc.Vec, resi_glob_rela: float, iter_glob_maxi: int,
+                load_norm: Callable[[], float], prefix: str = "",
+                settled: Callable[[PETSc.Vec], bool] | None = None,
+                scaled: Callable[[PETSc.Vec], float] | None = None) -> tuple[PETSc.SNES, LoadRelativeTest]:
     """A Newton SNES on our callbacks with code_aster's convergence criterion.
 
     ``residual(snes, x, f)`` and ``jacobian(snes, x, J, P)`` follow petsc4py's
@@ -158,7 +166,7 @@ SNES_TYPES = ("newtonls", "newtontr", "ksponly", "qn", "ngmres", "anderson", "nr
               "vinewtonrsls", "vinewtonssls")
 
 
-def user_options(argv=None):
+def user_options(argv: Sequence[str] | None = None) -> list[str]:
     """Names (without the dash) of the options the user gave on the command line."""
     import xfemcontact
 
@@ -167,7 +175,7 @@ def user_options(argv=None):
     return [tok[1:] for tok in argv if tok.startswith("-") and tok[1:] in known]
 
 
-def check_options(argv=None):
+def check_options(argv: Sequence[str] | None = None) -> None:
     """Check the PETSc options before the mesh is built: integer ranges, the iteration
     limits and tolerances we document, types and MUMPS controls (on a tiny dummy
     system factorised with the options given), and options that no solver reads.
@@ -192,7 +200,7 @@ def check_options(argv=None):
             raise OptionError(f"-{_clean(name)}: unknown option: no solver reads it{hint}")
 
 
-def _check_value(name, value):
+def _check_value(name: str, value: str | None) -> None:
     """Ranges of the options we document, and integers PETSc would wrap around."""
     from xfemcontact.case.schema import MAX_ITERATIONS
 
@@ -212,8 +220,8 @@ def _check_value(name, value):
     if name in TOLERANCE_OPTIONS:
         positive, key = TOLERANCE_OPTIONS[name]
         try:
-            number = float(value)
-        except (TypeError, ValueError):
+            number = float(value) if value is not None else float("nan")
+        except ValueError:
             number = float("nan")
         if not np.isfinite(number) or number < 0 or (positive and number == 0):
             what = "a number > 0" if positive else "a number >= 0"
@@ -232,7 +240,7 @@ _LOGGED_CLASSES = ("Matrix", "Vector", "Krylov Solver", "Preconditioner", "SNES"
                    "Index Set")
 
 
-def _dummy_failure():
+def _dummy_failure() -> str | None:
     """What PETSc says when it sets up our solvers with the options on a 2 x 2 system
     (one process), or None when it accepts them.  Not logged (``-log_view`` counts the
     run's own factorisations only)."""
@@ -246,8 +254,8 @@ def _dummy_failure():
             c.activate()
 
 
-def _dummy_set_up():
-    objects = []
+def _dummy_set_up() -> str | None:
+    objects: list[Any] = []
     try:
         A = _dummy_matrix()
         objects.append(A)
@@ -277,11 +285,12 @@ def _dummy_set_up():
 
 
 class _NoLoop:
-    def solve(self, snes, b, x):       # pragma: no cover - never solved
+    def solve(self, snes: PETSc.SNES, b: PETSc.Vec | None,
+              x: PETSc.Vec) -> None:       # pragma: no cover - never solved
         pass
 
 
-def _dummy_matrix():
+def _dummy_matrix() -> PETSc.Mat:
     symmetric = matrix_format() == "sbaij"
     A = (PETSc.Mat().createSBAIJ(2, 1, nnz=2, comm=PETSc.COMM_SELF) if symmetric else
          PETSc.Mat().createAIJ(2, nnz=2, comm=PETSc.COMM_SELF))
@@ -294,7 +303,7 @@ def _dummy_matrix():
     return A
 
 
-def _culprit(names):
+def _culprit(names: Sequence[str]) -> str | None:
     """The user option without which the dummy set-up succeeds (None if none alone)."""
     opts = PETSc.Options()
     for name in names:
@@ -308,7 +317,7 @@ def _culprit(names):
     return None
 
 
-def _petsc_message(exc):
+def _petsc_message(exc: Exception) -> str:
     """The last line of a PETSc error (without the ``[0]`` prefix), on one line."""
     lines = [line.split("]", 1)[-1].strip() for line in str(exc).splitlines() if line.strip()]
     lines = [line for line in lines if line and not line.startswith(("error code", "See https"))
@@ -317,9 +326,9 @@ def _petsc_message(exc):
     return _clean(text)
 
 
-def _accepted(name):
+def _accepted(name: str) -> str:
     """`` (accepted here: ...)`` for the type options, "" for others."""
-    values = []
+    values: list[str] = []
     if name.endswith("pc_type"):
         values = _types(PETSc.PC, PETSc.PC.Type)
     elif name.endswith("ksp_type"):
@@ -333,7 +342,8 @@ def _accepted(name):
     return f" (accepted here: {', '.join(values)})" if values else ""
 
 
-def _types(cls, enum):
+def _types(cls: Any, enum: Any) -> list[str]:
+    """The names of ``enum`` (a PETSc type enumeration) that ``cls`` (KSP, PC) can be set to."""
     out = []
     for attr in sorted(vars(enum)):
         value = getattr(enum, attr)
@@ -353,12 +363,12 @@ def _types(cls, enum):
     return sorted(set(out))
 
 
-def _solvers():
+def _solvers() -> str:
     """`` (available here: with -pc_type cholesky: ...; with -pc_type lu: ...)``."""
     opts = PETSc.Options()
     saved = {k: opts.getString(k, None) if opts.hasName(k) else None
              for k in ("pc_type", "pc_factor_mat_solver_type", "mat_type")}
-    found = {}
+    found: dict[str, list[str]] = {}
     try:
         for pc in ("cholesky", "lu"):
             for solver in sorted({v for k, v in vars(PETSc.Mat.SolverType).items()
@@ -377,7 +387,7 @@ def _solvers():
     return f" (available here: {'; '.join(parts)})" if parts else ""
 
 
-def _used(name):
+def _used(name: str) -> bool:
     """Whether PETSc read option ``name`` (PetscOptionsUsed)."""
     import ctypes
 
@@ -390,7 +400,7 @@ def _used(name):
     return bool(flag.value)
 
 
-def _clean(text):
+def _clean(text: object) -> str:
     text = " ".join(str(text).split())
     text = "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
     return text if len(text) <= 200 else text[:197] + "..."

@@ -11,12 +11,36 @@ names, configured from the case's ``[contact]`` table and the options database.
 """
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any, Protocol
+
 from xfemcontact._petsc import PETSc
 from xfemcontact.solver.loops import LoopRecord, create_loops, solve_newton
-from xfemcontact.solver.newton import create_snes
+from xfemcontact.solver.newton import LoadRelativeTest, create_snes
+
+if TYPE_CHECKING:
+    from xfemcontact.case.load import Case
+    from xfemcontact.contact.problem import InterfaceProblem
+    from xfemcontact.dofs.layout import DofLayout
 
 
-def _mumps_count(v):
+class SolvedModel(Protocol):
+    """What the solver uses of its :class:`xfemcontact.model.Model` (which imports this
+    module)."""
+
+    case: Case
+    comm: PETSc.Comm
+    layout: DofLayout
+    problem: InterfaceProblem | None
+    K: PETSc.Mat
+    load_norm: float
+    load_steps: bool
+
+    def residual(self, snes: PETSc.SNES, x: PETSc.Vec, f: PETSc.Vec) -> None: ...
+
+    def jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None: ...
+
+
+def _mumps_count(v: float) -> int:
     """MUMPS writes large counts as negative millions."""
     return int(v) if v >= 0 else int(-v) * 1000000
 
@@ -32,7 +56,13 @@ class NonlinearSolver:
     ``linear_warnings``.
     """
 
-    def __init__(self, model):
+    newton: PETSc.SNES
+    newton_test: LoadRelativeTest
+    record: LoopRecord | None
+    outer: PETSc.SNES | None
+    contact: PETSc.SNES | None
+
+    def __init__(self, model: SolvedModel) -> None:
         self.model = model
         self.comm = model.comm
         newton = model.case.newton
@@ -48,20 +78,20 @@ class NonlinearSolver:
             self.comm, model.residual, self._jacobian, model.K, f,
             newton.resi_glob_rela, newton.iter_glob_maxi, lambda: model.load_norm,
             settled=settled, scaled=scaled)
-        self.linear_failure: dict | None = None
+        self.linear_failure: dict[str, Any] | None = None
         self.linear_warnings: list[str] = []
-        self._info: dict | None = None
+        self._info: dict[str, Any] | None = None
         problem = model.problem
         self.record = LoopRecord() if problem is not None and problem.loops else None
         self.outer = self.contact = None
-        if self.record is not None:
+        if problem is not None and self.record is not None:
             self.outer, self.contact = create_loops(self, problem, model.case.contact)
 
-    def _jacobian(self, snes, x, J, P):
+    def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         self.jacobians += 1
         self.model.jacobian(snes, x, J, P)
 
-    def solve(self, x) -> int:
+    def solve(self, x: PETSc.Vec) -> int:
         """Solve from ``x`` (updated in place); the outermost converged reason."""
         if self.outer is None:
             solve_newton(self, x)
@@ -79,13 +109,13 @@ class NonlinearSolver:
             self._info = self.info()
             self.newton.getKSP().reset()
 
-    def info(self) -> dict:
+    def info(self) -> dict[str, Any]:
         """Linear solver facts: type, Jacobians, MUMPS statistics when MUMPS factors."""
         if self._info is not None:
             return self._info
         ksp = self.newton.getKSP()
         pc = ksp.getPC()
-        info = {"ksp": ksp.getType(), "pc": pc.getType(), "matrix": self.model.K.getType(),
+        info: dict[str, Any] = {"ksp": ksp.getType(), "pc": pc.getType(), "matrix": self.model.K.getType(),
                 "jacobians": self.jacobians}
         try:
             info["solver"] = pc.getFactorSolverType()
@@ -105,7 +135,7 @@ class NonlinearSolver:
                              "memory_mb_total": int(F.getMumpsInfog(31))}
         return info
 
-    def iterations(self) -> dict:
+    def iterations(self) -> dict[str, Any]:
         """Iteration counts of every loop (results.json ``iterations``)."""
         loops = self.record
         if loops is None:
