@@ -48,7 +48,8 @@ import keyword
 from dataclasses import dataclass, field
 from typing import Any
 
-from xfemcontact.case.formula import CONSTANTS, FUNCTIONS
+from xfemcontact.case.formula import CONSTANTS
+from xfemcontact.case.formula import FUNCTIONS as FORMULA_FUNCTIONS
 from xfemcontact.contact import laws
 
 NODE_FIELDS = ("DX", "DY")
@@ -86,7 +87,7 @@ RESERVED_NAMES = {
     "t": "a formula variable (the instant)",
     **dict.fromkeys(FIELDS, "a field name usable in test conditions"),
     **dict.fromkeys(CONSTANTS, "a constant"),
-    **dict.fromkeys(FUNCTIONS, "a function"),
+    **dict.fromkeys(FORMULA_FUNCTIONS, "a function"),
     **{word: "a Python keyword" for word in keyword.kwlist},
 }
 #: parameter names: ASCII letters, digits and '_', starting with a letter
@@ -413,6 +414,7 @@ def reference(table: Table = CASE, prefix: str = "") -> list[str]:
             if extra is not None:
                 lines.append(f"{dotted + '.<name>':26} {extra.doc}")
                 if extra.type == "table":
+                    assert extra.table is not None    # table keys have their table
                     lines.extend(reference(extra.table, dotted + ".<name>"))
             continue
         what = [key.type]

@@ -18,7 +18,7 @@ from xfemcontact.mesh.plex import NODE, reduce_nodes
 if TYPE_CHECKING:
     from numpy.typing import NDArray
 
-    from xfemcontact.case.formula import Formula
+    from xfemcontact.case.functions import TimeFormula
     from xfemcontact.case.load import Case
     from xfemcontact.contact.laws.base import InterfaceLaw
     from xfemcontact.mesh.plex import LocalMesh
@@ -36,7 +36,7 @@ def _touching_edges(mesh: LocalMesh, phi: FloatArray, edges: IntArray) -> BoolAr
 
 
 def fixed_components(mesh: LocalMesh, case: Case, geo: Geometry | None, law: InterfaceLaw | None,
-                     values_fn: Callable[[IntArray, Formula], FloatArray]) -> tuple[BoolArray, FloatArray]:
+                     values_fn: Callable[[IntArray, TimeFormula], FloatArray]) -> tuple[BoolArray, FloatArray]:
     """Imposed components ``(n, 4)`` (DX, DY, H1X, H1Y) and DX/DY values ``(n, 2)``.
 
     ``law``: the interface law (None without interface); ``values_fn(nodes,

@@ -139,6 +139,7 @@ def _pieces(model: Model, xl: FloatArray) -> Columns:
 def _subcell_pieces(model: Model, xl: FloatArray) -> Columns:
     """Sub-triangles of the cut cells with their mean stresses and strains."""
     mesh, geo, layout = model.mesh, model.geo, model.layout
+    assert geo is not None                     # cut cells: an interface
     el = mesh.element
     sub = geo.subcells
     k, ns = sub.side.shape

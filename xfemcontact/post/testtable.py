@@ -18,7 +18,7 @@ largest |reference formula| over the samples).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Iterable
+from typing import TYPE_CHECKING, Any, Iterable, Mapping
 
 import numpy as np
 
@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from petsc4py import PETSc
 
     from xfemcontact.case.formula import Formula
+    from xfemcontact.case.functions import TimeFormula
     from xfemcontact.case.load import TestSpec
 
     FloatArray = NDArray[np.float64]
@@ -117,12 +118,14 @@ def _combine(test, parts):
     return count, v[1], (v[2], v[3]), None
 
 
-def evaluate(tests: Iterable[TestSpec], samples: dict[str, Samples], reference: dict[str, Formula],
+def evaluate(tests: Iterable[TestSpec], samples: dict[str, Samples],
+             reference: Mapping[str, Formula | TimeFormula],
              comm: PETSc.Comm) -> list[Outcome]:
     """Outcomes of ``tests`` (TestSpec) on all processes.
 
     ``samples``: {"interface"|"node"|"cell": Samples} of this process (a kind
-    may be missing); ``reference``: {field: Formula}.
+    may be missing); ``reference``: {field: Formula or TimeFormula} (the case's
+    reference formulas, at the instant of the tests).
     """
     mpi = comm.tompi4py()
     out = []
