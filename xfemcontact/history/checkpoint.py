@@ -34,10 +34,17 @@ import json
 import os
 import shutil
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from xfemcontact.errors import CaseError
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+
+    from xfemcontact.case.load import Case
+    from xfemcontact.model import Model
 
 SUFFIX = ".checkpoints"
 FORMAT = 1
@@ -62,15 +69,16 @@ class CheckpointError(CaseError):
     collective = True
 
 
-def folder_of(outdir) -> Path:
+def folder_of(outdir: str | os.PathLike[str]) -> Path:
+    """The checkpoint folder of the output folder ``outdir``: ``OUT.checkpoints`` beside it."""
     p = Path(outdir)
     name = p.name if p.name not in ("", ".", "..") else p.resolve().name
     return p.parent / (name + SUFFIX)
 
 
-def case_digest(case) -> dict:
+def case_digest(case: Case) -> dict[str, str]:
     """SHA-256 of the case file and of the mesh file (if any)."""
-    def digest(path):
+    def digest(path: str | os.PathLike[str]) -> str:
         h = hashlib.sha256()
         with open(path, "rb") as f:
             for block in iter(lambda: f.read(1 << 20), b""):
@@ -83,7 +91,9 @@ def case_digest(case) -> dict:
     return out
 
 
-def _lock(path):
+def _lock(path: Path) -> int | None:
+    """An exclusive lock on the folder ``path``: its descriptor, None when it cannot be
+    opened, -1 when another process holds the lock."""
     try:
         fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
     except OSError:
@@ -96,7 +106,7 @@ def _lock(path):
     return fd
 
 
-def _write_atomic(path: Path, text: str):
+def _write_atomic(path: Path, text: str) -> None:
     tmp = path.with_name(path.name + ".part")
     with open(tmp, "w", encoding="utf-8") as f:
         f.write(text)
@@ -114,15 +124,18 @@ class Checkpoints:
     existing folder may be replaced by a new run.
     """
 
-    def __init__(self, outdir, case, comm, restart=False, overwrite=False):
+    def __init__(self, outdir: str | os.PathLike[str], case: Case, comm: MPI.Comm, restart: bool = False,
+                 overwrite: bool = False) -> None:
         self.comm = comm                      # mpi4py
         self.path = folder_of(outdir)
         self.case = case
         self.restart = restart
-        self.manifest = None
-        self._fd = None
+        self.manifest: dict[str, Any] | None = None
+        self._fd: int | None = None
         self._started = False
-        problem = manifest = None
+        self._layout: list[list[Any]] = []
+        problem: str | None = None
+        manifest: dict[str, Any] | None = None
         if comm.rank == 0:
             try:
                 manifest = self._check(outdir, overwrite)
@@ -135,7 +148,7 @@ class Checkpoints:
         self.manifest = manifest
 
     # -- the checks before the mesh is read ---------------------------------------
-    def _check(self, outdir, overwrite):
+    def _check(self, outdir: str | os.PathLike[str], overwrite: bool) -> dict[str, Any] | None:
         path = self.path
         shown = str(path)
         exists = path.is_dir()
@@ -176,13 +189,13 @@ class Checkpoints:
             self._fd = None
         return None
 
-    def _take_lock(self):
+    def _take_lock(self) -> None:
         fd = _lock(self.path)
         if fd == -1:
             raise CheckpointError(f"{self.path}: another run is using these checkpoints")
         self._fd = fd
 
-    def _read_manifest(self):
+    def _read_manifest(self) -> dict[str, Any]:
         try:
             return json.loads((self.path / "manifest.json").read_text(encoding="utf-8"))
         except (OSError, ValueError) as exc:
@@ -190,14 +203,14 @@ class Checkpoints:
                                   f"({type(exc).__name__}): cannot restart") from None
 
     # -- the layout ---------------------------------------------------------------
-    def fingerprint(self, model):
+    def fingerprint(self, model: Model) -> list[list[Any]]:
         """How the dofs are split over the processes (all processes; a list)."""
         mesh, layout = model.mesh, model.layout
         cells = hashlib.sha256(np.ascontiguousarray(mesh.cell_ids, dtype=np.int64).tobytes()).hexdigest()
         mine = [int(layout.global_size), int(layout.owned_size), int(layout.ownership_start), cells]
         return self.comm.allgather(mine)
 
-    def check_layout(self, model):
+    def check_layout(self, model: Model) -> None:
         """The dof layout of ``model`` is the one of the checkpoints (collective)."""
         if self.manifest is None:
             return
@@ -207,7 +220,7 @@ class Checkpoints:
                                   f"restart")
 
     # -- writing ------------------------------------------------------------------
-    def _start(self, model):
+    def _start(self, model: Model) -> None:
         if self._started:
             return
         if self.comm.rank == 0:
@@ -220,13 +233,13 @@ class Checkpoints:
         self.comm.barrier()
         self._started = True
 
-    def save(self, model, index, record, plan):
+    def save(self, model: Model, index: int, record: dict[str, Any], plan: dict[str, Any]) -> None:
         """Write completed step ``index`` (1-based): each process its solution and
         state, rank 0 the step record, then the manifest (``plan``: time, pending ...)."""
         self._start(model)
         rank, size = self.comm.rank, self.comm.size
         arrays = {"x": model.x.getArray(readonly=True).copy()}
-        none = []
+        none: list[str] = []
         for key, value in model.problem.state().items() if model.problem is not None else ():
             if value is None:
                 none.append(key)
@@ -252,14 +265,14 @@ class Checkpoints:
         self.comm.barrier()
 
     # -- reading ------------------------------------------------------------------
-    def records(self):
+    def records(self) -> list[dict[str, Any]]:
         """The records of the completed steps (rank 0; [] elsewhere)."""
         if self.comm.rank != 0 or self.manifest is None:
             return []
         return [json.loads((self.path / f"step-{i:06d}.json").read_text(encoding="utf-8"))
                 for i in range(1, self.manifest["completed"] + 1)]
 
-    def load(self, model, index):
+    def load(self, model: Model, index: int) -> None:
         """Put the solution and state of step ``index`` into ``model`` (collective)."""
         name = self.path / f"step-{index:06d}.p{self.comm.rank}-of-{self.comm.size}.npz"
         with np.load(name, allow_pickle=False) as data:
@@ -276,30 +289,31 @@ class Checkpoints:
             model.problem.set_state({k: (v.item() if v.ndim == 0 else v) if v is not None else None
                                      for k, v in state.items()})
 
-    def remove(self):
+    def remove(self) -> None:
         """After the results are written: the checkpoints are no longer needed."""
         if self.comm.rank == 0 and self.path.is_dir():
             shutil.rmtree(self.path, ignore_errors=True)
         self.release()
 
-    def release(self):
+    def release(self) -> None:
+        """Unlock the folder (kept for a restart)."""
         _unlock(self._fd)
         self._fd = None
 
-    def describe(self):
+    def describe(self) -> str | None:
         """Where the checkpoints are, for messages (None when none was written)."""
         if not self._started and self.manifest is None:
             return None
         return str(self.path)
 
 
-def _unlock(fd):
+def _unlock(fd: int | None) -> None:
     if fd is not None and fd >= 0:
         with contextlib.suppress(OSError):
             os.close(fd)
 
 
-def _plain(obj):
+def _plain(obj: object) -> Any:
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     if isinstance(obj, np.integer):

@@ -17,6 +17,7 @@ non-zero one is used, as code_aster does.
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,10 +25,22 @@ from xfemcontact.assembly import bulk, system
 from xfemcontact.fem import elasticity
 from xfemcontact.xfem import geometry as xgeo
 
+if TYPE_CHECKING:
+    from mpi4py import MPI
+    from numpy.typing import NDArray
 
-def case_at(case, t):
+    from xfemcontact.case.functions import TimeFormula
+    from xfemcontact.case.load import Case, Traction
+    from xfemcontact.mesh.raw import RawMesh
+    from xfemcontact.model import Model
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+
+
+def case_at(case: Case, t: float) -> Case:
     """``case`` with its loads (imposed displacements, tractions, body force) at ``t``."""
-    def comps(d):
+    def comps(d: dict[str, TimeFormula]) -> dict[str, TimeFormula]:
         return {k: f.at(t) for k, f in d.items()}
 
     dirichlet = tuple(dataclasses.replace(d, components=comps(d.components)) for d in case.dirichlet)
@@ -40,8 +53,9 @@ def case_at(case, t):
     return dataclasses.replace(case, dirichlet=dirichlet, traction=traction, body_force=body)
 
 
-def _uses_time(spec):
-    formulas = [spec.pressure] if getattr(spec, "pressure", None) is not None else []
+def _uses_time(spec: Any) -> bool:
+    """Whether a load (a Traction or a BodyForce, told apart by their fields) varies in time."""
+    formulas: list[TimeFormula] = [spec.pressure] if getattr(spec, "pressure", None) is not None else []
     formulas += list((getattr(spec, "force", None) or {}).values())
     if hasattr(spec, "FX"):
         formulas += [spec.FX, spec.FY]
@@ -55,17 +69,17 @@ class Loading:
     the edges of the tractions) is gathered here, before the first solve: the
     model releases its DMPlex, groups included, when it starts solving."""
 
-    def __init__(self, model):
+    def __init__(self, model: Model) -> None:
         self.model = model
         self.case = model.case
         mesh, geo, layout = model.mesh, model.geo, model.layout
         self._mesh, self._geo, self._layout = mesh, geo, layout
         self._lift_blocks = self._lift_matrices(model)
-        self._constant = {}                 # load index -> its (time-independent) local forces
-        self.reference = None               # last non-zero |f0|
-        self.t = None
+        self._constant: dict[int | str, FloatArray] = {}   # load index -> its (time-independent) local forces
+        self.reference: float | None = None       # last non-zero |f0|
+        self.t: float | None = None
 
-        def nodes_of(groups):
+        def nodes_of(groups: tuple[str, ...]) -> IntArray:
             return np.unique(np.concatenate([mesh.group_nodes(g) for g in groups])).astype(np.int64)
 
         #: per [[dirichlet]]: its nodes (the values of a later one override an earlier one's)
@@ -76,13 +90,13 @@ class Loading:
         self._path_nodes = [nodes_of(tr.groups) for tr in self.case.traction]
 
     @staticmethod
-    def _lift_matrices(model):
+    def _lift_matrices(model: Model) -> list[tuple[bulk.Batch, FloatArray]]:
         """Element matrices and local dofs of the cells with an imposed DX or DY."""
         mesh, geo, layout = model.mesh, model.geo, model.layout
         imposed = layout.fixed[:, :2].any(axis=1)
         touched = imposed[mesh.cell_nodes].any(axis=1)
         plain = geo.plain_cells(mesh) if geo is not None else np.arange(len(mesh.cells))
-        blocks = []
+        blocks: list[tuple[bulk.Batch, FloatArray]] = []
         cells = plain[touched[plain]]
         if len(cells):
             K = bulk.PlainStiffness(mesh.element, model.D)(mesh.x[mesh.cell_nodes[cells]],
@@ -98,7 +112,7 @@ class Loading:
                     blocks.append((bulk.enriched_batch(mesh, layout, pts.cells), K))
         return blocks
 
-    def _tractions(self, index, spec, f):
+    def _tractions(self, index: int, spec: Traction, f: FloatArray) -> None:
         """Add the forces of traction ``spec`` (the ``index``-th) on its edges to ``f``
         (what :func:`xfemcontact.assembly.system.add_tractions` does, on the edges kept)."""
         mesh, geo, layout = self._mesh, self._geo, self._layout
@@ -108,18 +122,19 @@ class Loading:
             fe = system._edge_forces_by_side(mesh, geo, nodes, mesh.x[nodes], spec)      # (k, 2, 6)
             np.add.at(f, system._edge_dofs(layout, nodes), fe.reshape(len(nodes), fe.shape[1] * fe.shape[2]))
 
-    def _external(self, case_t):
+    def _external(self, case_t: Case) -> FloatArray:
         """Local array of the external forces at the instant of ``case_t``."""
         mesh, geo, layout = self._mesh, self._geo, self._layout
         f = layout.local_array()
-        specs = [("body", case_t.body_force)] if case_t.body_force is not None else []
+        # ("body", the BodyForce), then (index, the Traction) of each traction
+        specs: list[tuple[int | str, Any]] = [("body", case_t.body_force)] if case_t.body_force is not None else []
         specs += [(i, tr) for i, tr in enumerate(case_t.traction)]
         for key, spec in specs:
             if key in self._constant:
                 f += self._constant[key]
                 continue
             part = layout.local_array()
-            if key == "body":
+            if isinstance(key, str):        # "body"
                 system.add_body_forces(mesh, geo, layout, spec, part)
             else:
                 self._tractions(key, spec, part)
@@ -128,7 +143,7 @@ class Loading:
             f += part
         return f
 
-    def _imposed(self, t):
+    def _imposed(self, t: float) -> FloatArray:
         """``(n, 2)`` DX, DY imposed at instant ``t`` (as :func:`constraints.fixed_components`)."""
         x = self._mesh.x
         values = np.zeros((len(x), 2))
@@ -138,7 +153,7 @@ class Loading:
                     values[nodes, c] = d.components[comp].at(t)(x=x[nodes, 0], y=x[nodes, 1])
         return values
 
-    def apply(self, t):
+    def apply(self, t: float) -> None:
         """Put the loads of instant ``t`` into the model: ``x_bc``, ``f0``, ``load_norm``."""
         model, layout = self.model, self._layout
         x_bc = system.bc_array(layout, layout.fixed, self._imposed(t))
@@ -152,7 +167,7 @@ class Loading:
         model.set_loads(x_bc, f0, norm if norm > 0 or self.reference is None else self.reference)
         self.t = t
 
-    def path(self, t):
+    def path(self, t: float) -> dict[str, float]:
         """The load path at ``t``: {label: mean value over the nodes of the load's groups}
         (all processes), for the plot of the loads against time."""
         from xfemcontact.errors import XfcError
@@ -160,9 +175,9 @@ class Loading:
         mesh = self._mesh
         mpi = self.model.comm.tompi4py()
         x = mesh.x
-        out = {}
+        out: dict[str, float] = {}
 
-        def mean(label, nodes, f):
+        def mean(label: str, nodes: IntArray, f: TimeFormula) -> None:
             own = nodes[mesh.node_owned[nodes]]
             try:          # tractions are evaluated at quadrature points, not at nodes
                 local = (float(np.sum(f.at(t)(x=x[own, 0], y=x[own, 1]))), len(own), 1)
@@ -178,6 +193,7 @@ class Loading:
                 mean(f"{d.key}.{comp} ({', '.join(d.groups)})", nodes, f)
         for nodes, tr in zip(self._path_nodes, self.case.traction):
             items = {"PRES": tr.pressure} if tr.pressure is not None else tr.force
+            assert items is not None                 # a traction gives a force or a pressure
             for comp, f in items.items():
                 mean(f"{tr.key}.{comp} ({', '.join(tr.groups)})", nodes, f)
         body = self.case.body_force
@@ -188,7 +204,7 @@ class Loading:
         return out
 
 
-def check_instants(case, raw, comm=None):
+def check_instants(case: Case, raw: RawMesh | None, comm: MPI.Comm | None = None) -> None:
     """The imposed displacements can be evaluated at the nodes of their groups at every
     instant (rank 0 checks on the input mesh ``raw``; every process raises the same
     one-line :class:`~xfemcontact.errors.FormulaError`, collective).  The last instant
@@ -198,6 +214,7 @@ def check_instants(case, raw, comm=None):
 
     outcome = None
     if comm is None or comm.rank == 0:
+        assert raw is not None                   # rank 0 has the input mesh
         try:
             x = raw.points
             for d in case.dirichlet:
@@ -212,7 +229,7 @@ def check_instants(case, raw, comm=None):
     _raise_shared(outcome, comm)
 
 
-def _at_instant(f, x, t):
+def _at_instant(f: TimeFormula, x: FloatArray, t: float) -> None:
     from xfemcontact.errors import FormulaError
 
     try:

@@ -21,11 +21,22 @@ standard output, and a checkpoint (:mod:`xfemcontact.history.checkpoint`).
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING, Any, Callable, Iterable
 
 import numpy as np
 
 from xfemcontact.history.loading import Loading
 from xfemcontact.post import testtable
+
+if TYPE_CHECKING:
+    from petsc4py import PETSc
+
+    from xfemcontact.case.load import TestSpec
+    from xfemcontact.history.checkpoint import Checkpoints
+    from xfemcontact.model import Model
+
+    #: the samples of the tests: :func:`xfemcontact.run.test_samples`
+    SampleFunction = Callable[[Model, Iterable[TestSpec]], dict[str, testtable.Samples]]
 
 
 class Stepper:
@@ -36,7 +47,10 @@ class Stepper:
     ``checkpoints``: a :class:`~xfemcontact.history.checkpoint.Checkpoints` or None.
     """
 
-    def __init__(self, model, say=None, samples=None, checkpoints=None):
+    _failed_start: tuple[PETSc.Vec, dict[str, Any]]     # after a failure: the start of the failed step
+
+    def __init__(self, model: Model, say: Callable[..., None] | None = None,
+                 samples: SampleFunction | None = None, checkpoints: Checkpoints | None = None) -> None:
         self.model, self.case = model, model.case
         self.say = say
         self.samples = samples
@@ -46,22 +60,25 @@ class Stepper:
         model.load_steps = True
         self.comm = model.comm
         self.instants = self.case.instants
-        self.steps: list[dict] = []              # records (rank 0 holds the interface tables)
-        self.outcomes: list = []                 # tests of every completed step
+        self.steps: list[dict[str, Any]] = []    # records (rank 0 holds the interface tables)
+        self.outcomes: list[testtable.Outcome] = []     # tests of every completed step
         self.time = self.instants.values[0]
-        self.pending = [(t, 0, True) for t in self.instants.values[1:]]
-        self.failure = None                      # (instant, level, reason) of the step that stopped the run
+        #: (instant, cut level, listed in [instants]) of every step to do
+        self.pending: list[tuple[float, int, bool]] = [(t, 0, True) for t in self.instants.values[1:]]
+        #: instant, level, reason and start of the step that stopped the run
+        self.failure: dict[str, Any] | None = None
 
     # -- restart -------------------------------------------------------------------
-    def resume(self, manifest):
+    def resume(self, manifest: dict[str, Any]) -> None:
         """Continue after the last completed step of ``manifest`` (collective)."""
         cp = self.checkpoints
+        assert cp is not None                    # a manifest comes from the checkpoints
         records = cp.records()
         light = [{k: v for k, v in r.items() if k != "interface"} for r in records]
         light = self.comm.tompi4py().bcast(light, root=0)
         self.steps = records if self.comm.rank == 0 else light
         self.time = manifest["time"]
-        self.pending = [tuple(p) for p in manifest["pending"]]
+        self.pending = [(t, level, listed) for t, level, listed in manifest["pending"]]
         self.loads.reference = manifest["load_reference"]
         cp.load(self.model, manifest["completed"])
         self.loads.apply(self.time)
@@ -111,7 +128,7 @@ class Stepper:
             return reason
         return reason
 
-    def restore_last(self):
+    def restore_last(self) -> None:
         """After a failure: the model back at its last completed step (its loads too)."""
         start_x, start_state = self._failed_start
         start_x.copy(self.model.x)
@@ -119,17 +136,17 @@ class Stepper:
             self.model.problem.set_state(start_state)
         self.loads.apply(self.time)
 
-    def _where(self, target, level, total):
+    def _where(self, target: float, level: int, total: int) -> str:
         listed = [i for i, t in enumerate(self.instants.values) if t >= target]
         index = listed[0] if listed else total
         cut = f", cut level {level}" if level else ""
         return f"t = {target:.6g} (step {index}/{total}{cut})"
 
-    def _say(self, line):
+    def _say(self, line: str) -> None:
         if self.say is not None:
             self.say(line)
 
-    def _counts(self):
+    def _counts(self) -> dict[str, int]:
         solver = self.model.solver
         if solver is None:
             return {"newton": 0, "solves": 0, "contact": 0, "jacobians": 0, "history": 0}
@@ -138,8 +155,9 @@ class Stepper:
                 "solves": len(rec.newton) if rec else 0, "contact": len(rec.contact) if rec else 0,
                 "jacobians": solver.jacobians, "history": len(solver.newton_test.history)}
 
-    def _iterations(self, c0):
+    def _iterations(self, c0: dict[str, int]) -> dict[str, Any]:
         solver = self.model.solver
+        assert solver is not None                # after a solve
         rec = solver.record
         if rec is None:
             n = solver.newton.getIterationNumber()
@@ -150,7 +168,8 @@ class Stepper:
                 "friction": int(rec.friction) if rec.friction else 0,
                 "jacobians": solver.jacobians - c0["jacobians"]}
 
-    def _complete(self, target, level, listed, c0, start_state, seconds, where, tic):
+    def _complete(self, target: float, level: int, listed: bool, c0: dict[str, int],
+                  start_state: dict[str, Any], seconds: float, where: str, tic: float) -> None:
         """Record, test, report and checkpoint a converged step (``seconds``: the solve,
         ``tic``: when the step started)."""
         from xfemcontact.output.results import interface_table
@@ -159,15 +178,16 @@ class Stepper:
         iterations = self._iterations(c0)
         changes = model.problem.status_changes(start_state) if model.problem is not None else 0
         tests = [t for t in case.tests if listed and t.inst == target]
-        outcomes = []
+        outcomes: list[testtable.Outcome] = []
         if tests:
+            assert self.samples is not None, "a case with tests needs the samples function"
             outcomes = testtable.evaluate(tests, self.samples(model, tests), case.reference_at(target),
                                           self.comm)
             for o in outcomes:
                 o.inst = target
         table = interface_table(model)
         path = self.loads.path(target)
-        record = {"index": len(self.steps) + 1, "inst": float(target), "start": float(self.time),
+        record: dict[str, Any] = {"index": len(self.steps) + 1, "inst": float(target), "start": float(self.time),
                   "level": int(level), "listed": bool(listed), "converged": True,
                   "seconds": round(seconds, 4), "iterations": iterations,
                   "status_changes": int(changes), "load_norm": float(model.load_norm),
@@ -194,11 +214,12 @@ class Stepper:
                     "load_reference": self.loads.reference}
             self.checkpoints.save(model, len(self.steps), record, plan)
 
-    def listed_steps(self):
+    def listed_steps(self) -> list[dict[str, Any]]:
+        """The records of the steps at the instants of ``[instants]`` (not the cut ones)."""
         return [s for s in self.steps if s["listed"]]
 
 
-def _outcome(d):
+def _outcome(d: dict[str, Any]) -> testtable.Outcome:
     """An Outcome from its dict (a checkpointed step's tests)."""
     o = testtable.Outcome(d["name"], d["field"], d["type"],
                           float("nan") if d["value"] is None else d["value"], d["reference"],
