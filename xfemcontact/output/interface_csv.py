@@ -16,11 +16,30 @@ LAGS_F1 (-), gap, slip (m, normal and tangential jump), contact (1/0),
 sliding (1/0); and ``<field>_ref``, ``<field>_err`` (computed - reference)
 for each of LAGS_C, LAGS_F1, gap, slip with a ``[reference]`` formula.
 """
+from __future__ import annotations
+
+import os
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Mapping, Protocol
 
 import numpy as np
 
 from xfemcontact.fem.elements import Seg3
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from xfemcontact.case.formula import Formula
+    from xfemcontact.case.functions import TimeFormula
+    from xfemcontact.fem.elements import Element
+    from xfemcontact.model import Model
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+    BoolArray = NDArray[np.bool_]
+    #: {field: formula of x, y} (``[reference]``)
+    References = Mapping[str, Formula | TimeFormula]
 
 COLUMNS = ("curve", "s", "x", "y", "cell", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding")
 REFERENCE_FIELDS = ("LAGS_C", "LAGS_F1", "gap", "slip")
@@ -29,22 +48,30 @@ INTEGER_COLUMNS = ("curve", "cell", "contact", "sliding")
 DENSE = 9
 
 
+class Folder(Protocol):
+    """Where the file goes (an :class:`xfemcontact.output.folder.OutputFolder`, whose
+    module imports the plots, which import this one)."""
+
+    def file(self, name: str) -> Path: ...
+
+
 @dataclass
 class InterfaceTable:
     """The interface table of the whole model (rank 0)."""
 
-    columns: dict                 # name -> (rows,) in file order
-    curves: list                  # per curve: {"x", "y", "s" (m), "<field>_ref"}: dense polylines
-    length: float                 # total interface length, m
-    warnings: list = field(default_factory=list)
+    columns: dict[str, NDArray[Any]]      # name -> (rows,) in file order
+    curves: list[dict[str, FloatArray]]   # per curve: {"x", "y", "s" (m), "<field>_ref"}: dense polylines
+    length: float                         # total interface length, m
+    warnings: list[str] = field(default_factory=list)
 
 
-def build(model):
+def build(model: Model) -> InterfaceTable | None:
     """The InterfaceTable on rank 0 (None elsewhere, or without an interface).  Collective."""
     v = model.interface_values()
     if v is None:
         return None
     problem, mesh = model.problem, model.mesh
+    assert problem is not None                  # interface values come from the problem
     k = len(problem.segments)
     ends = {key: np.asarray(a).reshape(2, k).T for key, a in v.items()}       # (k, 2): P1, P2
     segs = problem.segments
@@ -61,7 +88,8 @@ def build(model):
     return tabulate(ends, seg, mesh.element, model.case.reference)
 
 
-def tabulate(ends, seg, el, reference):
+def tabulate(ends: dict[str, NDArray[Any]], seg: dict[str, NDArray[Any]], el: Element,
+             reference: References | None) -> InterfaceTable:
     """Chain the segments and lay out the rows.
 
     ``ends``: point values ``(K, 2)`` at (P1, P2) of every segment (see
@@ -81,7 +109,7 @@ def tabulate(ends, seg, el, reference):
     base = np.maximum.accumulate(np.where(first, cum - L, 0.0))               # curve start offsets
     s1 = cum - base
     s0 = np.where(first, 0.0, np.r_[0.0, s1[:-1]])                           # exactly the previous end
-    cols = {"curve": np.repeat(curve, 2), "s": np.c_[s0, s1].ravel()}
+    cols: dict[str, NDArray[Any]] = {"curve": np.repeat(curve, 2), "s": np.c_[s0, s1].ravel()}
     for key in ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding"):
         v = ends[key][order]
         cols[key] = np.where(rev[:, None], v, v[:, ::-1]).ravel()             # walk start, walk end
@@ -93,7 +121,7 @@ def tabulate(ends, seg, el, reference):
     return table
 
 
-def chain(start, stop):
+def chain(start: FloatArray, stop: FloatArray) -> tuple[IntArray, IntArray, BoolArray]:
     """Order oriented segments ``start -> stop`` ``(K, 2)`` into curves.
 
     Points closer than the merge tolerance are one point.  An open curve is
@@ -147,12 +175,12 @@ def chain(start, stop):
     return number[cid], d, flip[cid]
 
 
-def _lex_order(p, tol):
+def _lex_order(p: FloatArray, tol: float) -> IntArray:
     """Indices sorting points ``p (m, 2)`` by x (to ``tol``), then y."""
     return np.lexsort((p[:, 1], np.round(p[:, 0] / tol)))
 
 
-def _list_rank(prv, idx):
+def _list_rank(prv: IntArray, idx: IntArray) -> tuple[IntArray, IntArray]:
     """Distance of every list element to its head, and the head (pointer jumping:
     log K vectorised steps).  ``prv``: predecessor, -1 at heads."""
     p = np.where(prv >= 0, prv, idx)
@@ -165,7 +193,8 @@ def _list_rank(prv, idx):
         p = pp
 
 
-def dense_curves(el, seg, curve, s0, rev, n=DENSE):
+def dense_curves(el: Element, seg: dict[str, NDArray[Any]], curve: IntArray, s0: FloatArray, rev: BoolArray,
+                 n: int = DENSE) -> list[dict[str, FloatArray]]:
     """Dense polylines ``{"x", "y", "s"}`` (m) of every curve, segments in curve order;
     ``rev (K,)``: the segment is walked P1 -> P2 (else P2 -> P1)."""
     t = np.where(rev[:, None], -1.0, 1.0) * np.linspace(1.0, -1.0, n)[None, :]   # (K, n) walk order
@@ -188,7 +217,7 @@ def dense_curves(el, seg, curve, s0, rev, n=DENSE):
     return out
 
 
-def add_reference(table, reference):
+def add_reference(table: InterfaceTable, reference: References | None) -> None:
     """``<field>_ref`` and ``<field>_err`` columns for the fields with a formula."""
     for f in REFERENCE_FIELDS:
         formula = reference.get(f) if reference else None
@@ -206,12 +235,12 @@ def add_reference(table, reference):
             c[f + "_ref"] = d
 
 
-def _evaluate(formula, x, y):
+def _evaluate(formula: Formula | TimeFormula, x: FloatArray, y: FloatArray) -> FloatArray:
     return np.broadcast_to(np.asarray(formula(x=x, y=y), dtype=float), np.shape(x)).copy()
 
 
 # -- file ---------------------------------------------------------------------------
-def write(folder, table, name="interface.csv"):
+def write(folder: Folder, table: InterfaceTable, name: str = "interface.csv") -> list[str]:
     """Write ``table`` (rank 0); returns ``[name]``."""
     cols = list(table.columns)
     data = np.column_stack([np.asarray(table.columns[c], dtype=float) for c in cols])
@@ -220,7 +249,7 @@ def write(folder, table, name="interface.csv"):
     return [name]
 
 
-def read(path):
+def read(path: str | os.PathLike[str]) -> dict[str, NDArray[Any]]:
     """The columns of an interface.csv: {name: array} (integer columns as int)."""
     with open(path, encoding="utf-8") as f:
         names = f.readline().strip().split(",")

@@ -20,6 +20,7 @@ interruptions and closes the pipe).
 """
 from __future__ import annotations
 
+import importlib
 import os
 import pickle
 import subprocess
@@ -171,10 +172,10 @@ def serve() -> None:
     import matplotlib
 
     matplotlib.use("Agg")
-    from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: F401  (imported now, used later)
+    importlib.import_module("matplotlib.backends.backend_agg")    # imported now, used later
     from matplotlib.figure import Figure
 
-    from xfemcontact.post import plots  # noqa: F401
+    importlib.import_module("xfemcontact.post.plots")
 
     Figure()                             # fonts and rc parameters loaded before the data comes
     times = {"import": round(time.process_time() - t0, 4)}

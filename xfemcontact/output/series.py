@@ -19,16 +19,36 @@ state), so a resumed run writes the same files as an uninterrupted one.
 from __future__ import annotations
 
 import os
+from typing import TYPE_CHECKING, Any, Callable, Iterable
 
 import numpy as np
 
 from xfemcontact.output import interface_csv
 
+if TYPE_CHECKING:
+    import meshio
+    from matplotlib.figure import Figure
+    from numpy.typing import NDArray
+
+    from xfemcontact.history.checkpoint import Checkpoints
+    from xfemcontact.history.stepping import Stepper
+    from xfemcontact.model import Model
+    from xfemcontact.output.folder import OutputFolder
+    from xfemcontact.output.interface_csv import InterfaceTable
+    from xfemcontact.post.postmesh import PostMesh
+    from xfemcontact.post.testtable import Outcome
+
+    #: interface.csv columns by name
+    Columns = dict[str, NDArray[Any]]
+    #: a panel of the history plot: (y label, [(line label, values at every instant)])
+    Panel = tuple[str, list[tuple[str, NDArray[np.float64]]]]
+
 #: fractions of the first curve's length where the history plot follows the interface
 HISTORY_POINTS = (0.0, 0.25, 0.5, 0.75, 1.0)
 
 
-def write_fields(folder, model, stepper, checkpoints):
+def write_fields(folder: OutputFolder, model: Model, stepper: Stepper,
+                 checkpoints: Checkpoints) -> tuple[PostMesh | None, list[str]]:
     """fields.xdmf as a time series (and fields.vtu / fields.med at the last step).
     Collective.  Leaves the model at its last completed step; returns the PostMesh
     of that step (rank 0) and the names written."""
@@ -37,7 +57,7 @@ def write_fields(folder, model, stepper, checkpoints):
     formats = model.case.output.formats
     steps = stepper.steps
     writer = None
-    written = []
+    written: list[str] = []
     post = None
     frames = [(i + 1, s["inst"]) for i, s in enumerate(steps)] or [(0, stepper.time)]
     try:
@@ -73,7 +93,7 @@ class _TimeSeries:
     """meshio's XDMF time-series writer, writing into the output folder with a relative
     HDF5 path (the folder is renamed afterwards)."""
 
-    def __init__(self, folder, name):
+    def __init__(self, folder: OutputFolder, name: str) -> None:
         import meshio
 
         self._cwd = os.getcwd()
@@ -87,26 +107,26 @@ class _TimeSeries:
         os.chdir(self._cwd)
         self._folder = folder
 
-    def _inside(self, fn, *args):
+    def _inside(self, fn: Callable[..., Any], *args: Any) -> Any:
         os.chdir(self._folder.file("."))
         try:
             return fn(*args)
         finally:
             os.chdir(self._cwd)
 
-    def mesh(self, m):
+    def mesh(self, m: meshio.Mesh) -> None:
         self._inside(self._writer.write_points_cells, m.points, m.cells)
 
-    def frame(self, t, m):
+    def frame(self, t: float, m: meshio.Mesh) -> None:
         cell_data = {k: list(v) for k, v in m.cell_data.items()}
         self._inside(lambda: self._writer.write_data(float(t), point_data=dict(m.point_data),
                                                       cell_data=cell_data))
 
-    def close(self):
+    def close(self) -> None:
         self._inside(self._writer.__exit__, None, None, None)
 
 
-def interface_rows(model, stepper):
+def interface_rows(model: Model, stepper: Stepper) -> tuple[InterfaceTable | None, Columns | None]:
     """The interface.csv columns of every completed step (rank 0; None elsewhere or
     without interface): the last step's table (:func:`interface_csv.build`) gives the
     row order and the curves, each step its values."""
@@ -124,7 +144,8 @@ def interface_rows(model, stepper):
                      for c, x, y in zip(cols["cell"], cols["x"], cols["y"])])
     if (rows < 0).any():          # cannot happen: same points at every step
         return table, None
-    out = {name: [] for name in ["inst"] + list(interface_csv.COLUMNS) + ["slip_path"]}
+    names = ["inst"] + list(interface_csv.COLUMNS) + ["slip_path"]
+    out: dict[str, list[NDArray[Any]]] = {name: [] for name in names}
     ref_names = [f for f in interface_csv.REFERENCE_FIELDS if f in model.case.reference]
     for f in ref_names:
         out[f + "_ref"], out[f + "_err"] = [], []
@@ -150,7 +171,8 @@ def interface_rows(model, stepper):
     return table, {k: np.concatenate(v) for k, v in out.items()}
 
 
-def write_interface_csv(folder, columns, name="interface.csv"):
+def write_interface_csv(folder: OutputFolder, columns: Columns, name: str = "interface.csv") -> list[str]:
+    """Write the columns of every step (:func:`interface_rows`) as ``name``; returns ``[name]``."""
     names = list(columns)
     data = np.column_stack([np.asarray(columns[c], dtype=float) for c in names])
     fmt = ["%d" if c in interface_csv.INTEGER_COLUMNS else "%.17g" for c in names]
@@ -158,14 +180,14 @@ def write_interface_csv(folder, columns, name="interface.csv"):
     return [name]
 
 
-def history_figure(stepper, table, title):
+def history_figure(stepper: Stepper, table: InterfaceTable | None, title: str) -> Figure:
     """LAGS_C, LAGS_F1, slip against time at a few interface points, and the load path."""
     from matplotlib.figure import Figure
 
     steps = stepper.steps
     t0 = stepper.instants.values[0]
     ts = np.r_[t0, [s["inst"] for s in steps]]
-    panels = []
+    panels: list[Panel] = []
     if table is not None and steps and "interface" in steps[-1]:
         cols = table.columns
         first = cols["curve"] == cols["curve"].min()
@@ -174,7 +196,7 @@ def history_figure(stepper, table, title):
         last = steps[-1]["interface"]
         where = {(int(c), float(x), float(y)): i for i, (c, x, y) in
                  enumerate(zip(last["cell"], last["x"], last["y"]))}
-        picks = []
+        picks: list[tuple[int, int]] = []          # (row of the table, index in the steps' tables)
         for frac in HISTORY_POINTS:
             j = int(np.argmin(np.abs(s - frac * length)))
             row = np.flatnonzero(first)[j]
@@ -182,17 +204,18 @@ def history_figure(stepper, table, title):
             if key in where and where[key] not in [p[1] for p in picks]:
                 picks.append((row, where[key]))
         for field, unit in (("LAGS_C", "Pa"), ("LAGS_F1", "-"), ("slip", "m")):
-            lines = []
+            lines: list[tuple[str, NDArray[np.float64]]] = []
             for row, i in picks:
                 v = np.r_[0.0, [st["interface"][field][i] for st in steps]]
                 label = f"s = {cols['s'][row]:.3g} m ({cols['x'][row]:.3g}, {cols['y'][row]:.3g})"
                 lines.append((label, v))
             panels.append((f"{field} ({unit})", lines))
-    loads = {}
+    loads: dict[str, None] = {}                # labels, in order of appearance
     for st in steps:
         for label in st.get("loads", {}):
             loads.setdefault(label, None)
-    imposed, forces = [], []
+    imposed: list[tuple[str, NDArray[np.float64]]] = []
+    forces: list[tuple[str, NDArray[np.float64]]] = []
     for label in loads:
         v = np.r_[np.nan, [st.get("loads", {}).get(label, np.nan) for st in steps]]
         if not np.any(np.nan_to_num(v)):          # zero at every instant: left out
@@ -216,7 +239,9 @@ def history_figure(stepper, table, title):
     return fig
 
 
-def write_outputs(folder, model, stepper, checkpoints, converged, reason, outcomes, warnings=()):
+def write_outputs(folder: OutputFolder, model: Model, stepper: Stepper, checkpoints: Checkpoints,
+                  converged: bool, reason: int, outcomes: Iterable[Outcome],
+                  warnings: Iterable[str] = ()) -> dict[str, Any]:
     """Every result file but results.json (see the module documentation).  Collective;
     only rank 0 writes.  Returns the summary of the last completed step (rank 0)."""
     from xfemcontact.output import report, results

@@ -7,10 +7,19 @@ topology when there are quadrangles and triangles): the files are the ones
 meshio wrote before, byte for byte in the XML and value for value in the HDF5,
 without importing meshio (0.2 s) or building its mesh object first.
 """
+from __future__ import annotations
+
 import os
 import xml.etree.ElementTree as ET
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import h5py
+    from numpy.typing import NDArray
+
+    from xfemcontact.post.postmesh import PostMesh
 
 #: XDMF topology names and Mixed-topology type codes of our cell types
 XDMF_TYPE = {"quad8": "Quadrilateral_8", "triangle6": "Triangle_6"}
@@ -18,7 +27,7 @@ XDMF_CODE = {"quad8": 0x25, "triangle6": 0x24}
 _DTYPE = {"int32": ("Int", "4"), "int64": ("Int", "8"), "float32": ("Float", "4"), "float64": ("Float", "8")}
 
 
-def _attribute_type(data):
+def _attribute_type(data: NDArray[Any]) -> str:
     if data.ndim == 1 or (data.ndim == 2 and data.shape[1] == 1):
         return "Scalar"
     if data.ndim == 2 and data.shape[1] in (2, 3):
@@ -27,10 +36,10 @@ def _attribute_type(data):
 
 
 class _Writer:
-    def __init__(self, h5, h5_name):
+    def __init__(self, h5: h5py.File, h5_name: str) -> None:
         self.h5, self.h5_name, self.count = h5, h5_name, 0
 
-    def item(self, parent, data, dims=None):
+    def item(self, parent: ET.Element, data: NDArray[Any], dims: str | None = None) -> None:
         """A DataItem under ``parent`` pointing to a new dataset holding ``data``."""
         dt, prec = _DTYPE[data.dtype.name]
         node = ET.SubElement(parent, "DataItem", DataType=dt,
@@ -42,7 +51,7 @@ class _Writer:
         node.text = f"{self.h5_name}:/{name}"
 
 
-def write(path, post):
+def write(path: str | os.PathLike[str], post: PostMesh) -> None:
     """Write ``path`` (``.xdmf``) and the HDF5 file next to it (same stem, ``.h5``) for
     the :class:`~xfemcontact.post.postmesh.PostMesh` ``post``.  The XDMF file names
     the HDF5 file without a folder, so the pair can be moved together."""
