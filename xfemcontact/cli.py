@@ -17,11 +17,18 @@ received it wait :data:`SIGNAL_AGREEMENT` seconds for the others (mpirun forward
 its signals to all), then abort the run (``MPI_Abort``).  A standard output
 closed early (``xfemcontact run ... | head -1``) does not stop the run.
 """
+from __future__ import annotations
+
 import os
 import sys
 import time
+from typing import TYPE_CHECKING, NoReturn, Sequence
 
 import xfemcontact
+
+if TYPE_CHECKING:
+    from mpi4py import MPI
+    from petsc4py import PETSc
 
 #: seconds the processes that received a signal wait for the others before aborting
 SIGNAL_AGREEMENT = 2.0
@@ -42,19 +49,21 @@ exit codes: 0 solved and all tests OK, 1 a test NOOK, 2 bad input, 3 no converge
 """
 
 
-def usage():
+def usage() -> str:
     """The usage text, with our own options (:mod:`xfemcontact.options`)."""
     from xfemcontact import options
 
     return USAGE + "\n".join(options.help_lines()) + "\n"
 
 
-def split_args(argv, flags=None):
+def split_args(argv: Sequence[str], flags: dict[str, bool] | None = None
+               ) -> tuple[str | None, str | None, bool, bool, list[str]]:
     """Our arguments and the PETSc ones: ``(case, outdir, overwrite, help, petsc_args)``;
     ``flags`` (a dict), if given, gets ``restart`` and ``quiet``."""
-    case = outdir = None
+    case: str | None = None
+    outdir: str | None = None
     overwrite = want_help = False
-    petsc = []
+    petsc: list[str] = []
     flags = {} if flags is None else flags
     flags.setdefault("restart", False)
     flags.setdefault("quiet", False)
@@ -79,7 +88,8 @@ def split_args(argv, flags=None):
     return case, outdir, overwrite, want_help, petsc
 
 
-def main(argv=None):
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line ``argv`` (default: ``sys.argv[1:]``); returns the exit code."""
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help"):
         print(usage(), end="")
@@ -87,7 +97,7 @@ def main(argv=None):
     if argv[0] != "run":
         print(usage(), end="", file=sys.stderr)
         return 2
-    flags = {}
+    flags: dict[str, bool] = {}
     case, outdir, overwrite, want_help, petsc = split_args(argv[1:], flags)
     if want_help or case is None:
         print(usage(), end="")
@@ -98,7 +108,8 @@ def main(argv=None):
 
     _quiet_numerics()
     previous = handle_signals()       # SIGINT/SIGTERM/SIGHUP -> Interrupted: a clean stop
-    comm = agreement = None
+    comm: PETSc.Comm | None = None
+    agreement: MPI.Comm | None = None
     try:
         from xfemcontact._petsc import PETSc
 
@@ -115,7 +126,7 @@ def main(argv=None):
         if comm is None or comm.rank == 0:
             _say(str(exc))
         alone = agreement is not None and not _all_arrive(agreement, SIGNAL_AGREEMENT)
-        if alone and comm.rank != 0:
+        if alone and comm is not None and comm.rank != 0:       # alone: several processes
             _say(f"interrupted ({exc.name}) on process {comm.rank} of {comm.size}: "
                  f"stopping every process")
         if alone:
@@ -142,7 +153,7 @@ def main(argv=None):
         restore_signals(previous)
 
 
-def console(argv=None):
+def console(argv: Sequence[str] | None = None) -> NoReturn:
     """The ``xfemcontact`` command (and ``python -m xfemcontact``): :func:`main`, then
     leave at once.  Everything is written by then; tearing the interpreter down
     (modules, arrays of a large model) would cost another 0.1 - 0.2 s."""
@@ -150,7 +161,7 @@ def console(argv=None):
     _leave(code if isinstance(code, int) else 1)
 
 
-def _leave(code):
+def _leave(code: int) -> NoReturn:
     """Finalize PETSc (which writes ``-log_view``) and MPI, flush, and exit with ``code``."""
     petsc = sys.modules.get("petsc4py.PETSc")
     if petsc is not None:
@@ -166,7 +177,7 @@ def _leave(code):
     os._exit(code)
 
 
-def _say(line):
+def _say(line: str) -> None:
     """One line on stderr, even when it is closed."""
     try:
         print(line, file=sys.stderr, flush=True)
@@ -174,7 +185,7 @@ def _say(line):
         pass
 
 
-def _quiet_numerics():
+def _quiet_numerics() -> None:
     """No NumPy warnings on stderr: every value that matters is checked for being finite
     and reported in one line (formulas, residuals, results)."""
     import warnings
@@ -185,7 +196,7 @@ def _quiet_numerics():
     warnings.filterwarnings("ignore", category=RuntimeWarning)
 
 
-def _all_arrive(comm, timeout):
+def _all_arrive(comm: MPI.Comm, timeout: float) -> bool:
     """Whether every process of ``comm`` reaches this point within ``timeout`` seconds
     (a non-blocking barrier on a communicator of its own)."""
     request = comm.Ibarrier()
@@ -197,7 +208,7 @@ def _all_arrive(comm, timeout):
     return False
 
 
-def _finish(comm, code):
+def _finish(comm: PETSc.Comm | None, code: int) -> int:
     """Leave with ``code``; under MPI a failure on one process must stop all of them."""
     if comm is not None and comm.size > 1:
         sys.stderr.flush()

@@ -9,11 +9,14 @@ PETSc and ``-xfc_*`` options, build the input mesh and check the case against it
 the tests (only when converged), write the files into a temporary folder,
 results.json last, and put it into place.
 """
+from __future__ import annotations
+
 import dataclasses
 import os
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, Iterable
 
 import numpy as np
 
@@ -27,8 +30,16 @@ from xfemcontact.post import testtable
 from xfemcontact.solver.diagnose import diagnose
 from xfemcontact.solver.newton import check_options
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
 
-def say(comm, *lines):
+    from xfemcontact.case.load import Case, TestSpec
+    from xfemcontact.history.checkpoint import Checkpoints
+    from xfemcontact.model import Model
+    from xfemcontact.post.fields import PointValues
+
+
+def say(comm: PETSc.Comm, *lines: str) -> None:
     """Lines on stdout (rank 0).  A closed standard output (``| head -1``) is no reason
     to stop: what follows goes nowhere."""
     if comm.rank == 0:
@@ -39,35 +50,37 @@ def say(comm, *lines):
                 _stdout_to_null()
 
 
-def _stdout_to_null():
+def _stdout_to_null() -> None:
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, sys.stdout.fileno())
     os.close(devnull)
 
 
-def node_samples(model, u):
+def node_samples(model: Model, u: NDArray[np.float64]) -> testtable.Samples:
+    """DX, DY ``u (n, 2)`` at the nodes this process owns."""
     own = model.mesh.node_owned
     x = model.mesh.x[own]
     return testtable.Samples(x[:, 0], x[:, 1], {"DX": u[own, 0], "DY": u[own, 1]})
 
 
-def cell_samples(model, values):
-    xs, ys, s = [], [], []
+def cell_samples(model: Model, values: Iterable[PointValues]) -> testtable.Samples:
+    """SIXX, SIYY, SIXY at the quadrature points of ``values`` (those of positive weight)."""
+    xs, ys, stresses = [], [], []
     for v in values:
         live = v.w > 0
         xs.append(v.x[..., 0][live])
         ys.append(v.x[..., 1][live])
-        s.append(v.stress[live])
-    s = np.concatenate(s) if s else np.zeros((0, 3))
+        stresses.append(v.stress[live])
+    s = np.concatenate(stresses) if stresses else np.zeros((0, 3))
     return testtable.Samples(np.concatenate(xs), np.concatenate(ys),
                           {"SIXX": s[:, 0], "SIYY": s[:, 1], "SIXY": s[:, 2]})
 
 
-def test_samples(model, tests):
+def test_samples(model: Model, tests: Iterable[TestSpec]) -> dict[str, testtable.Samples]:
     """The samples the ``tests`` look at: {"node"|"cell"|"interface": Samples}, only
     the kinds they need (cell samples are the stresses at every quadrature point)."""
     kinds = {t.kind for t in tests}
-    samples = {}
+    samples: dict[str, testtable.Samples] = {}
     if "node" in kinds:
         samples["node"] = node_samples(model, model.displacement())
     if "cell" in kinds:
@@ -77,7 +90,8 @@ def test_samples(model, tests):
     return samples
 
 
-def run(case_path, outdir=None, overwrite=False, restart=False, quiet=False):
+def run(case_path: str | os.PathLike[str], outdir: str | None = None, overwrite: bool = False,
+        restart: bool = False, quiet: bool = False) -> int:
     """Solve ``case_path``, write results into ``outdir``; return the exit code.
 
     Raises :class:`ConvergenceError` (exit code 3) after writing the results of
@@ -94,7 +108,8 @@ def run(case_path, outdir=None, overwrite=False, restart=False, quiet=False):
     t0 = time.perf_counter()
     timing.reset()
     timing.start_logging()
-    folder = checkpoints = None
+    folder: OutputFolder | None = None
+    checkpoints: Checkpoints | None = None
     if PETSc.Options().hasName("help"):
         say(comm, *options.help_lines())
     try:
@@ -140,6 +155,7 @@ def run(case_path, outdir=None, overwrite=False, restart=False, quiet=False):
         warn(comm, *preflight.readjustment_warnings(case, model))
         say(comm, f"{case.title}: {model.layout.global_size} dofs on {comm.size} process(es)")
         if case.instants.given:
+            assert checkpoints is not None           # made for a case with [instants]
             return _run_history(case, model, folder, checkpoints, outdir, pre, comm, quiet, t0)
         tic = time.perf_counter()
         reason = model.solve()
@@ -149,7 +165,7 @@ def run(case_path, outdir=None, overwrite=False, restart=False, quiet=False):
         loop_warnings = model.run_warnings()
         warn(comm, *loop_warnings)
         diagnostics = None if converged else diagnose(model, reason, outdir)
-        outcomes = []
+        outcomes: list[testtable.Outcome] = []
         with timing.phase("post"):
             if converged:      # tests on a run that did not converge would mean nothing
                 outcomes = testtable.evaluate(case.tests, test_samples(model, case.tests), case.reference, comm)
@@ -189,6 +205,7 @@ def run(case_path, outdir=None, overwrite=False, restart=False, quiet=False):
             say(comm, f"NOT CONVERGED: last iterate and diagnostics in {outdir}/ "
                       f"(results.json: \"converged\": false; {len(case.tests)} test(s) not "
                       f"evaluated)")
+            assert diagnostics is not None           # made when not converged
             raise ConvergenceError(diagnostics["message"], diagnostics=diagnostics)
         say(comm, f"results in {outdir}/ ({timing.TIMINGS['total']:.2f} s)")
     except Interrupted as exc:
@@ -197,7 +214,8 @@ def run(case_path, outdir=None, overwrite=False, restart=False, quiet=False):
     return 0 if all(o.ok for o in outcomes) else 1
 
 
-def _run_history(case, model, folder, checkpoints, outdir, pre, comm, quiet, t0):
+def _run_history(case: Case, model: Model, folder: OutputFolder, checkpoints: Checkpoints, outdir: str,
+                 pre: preflight.Preflight, comm: PETSc.Comm, quiet: bool, t0: float) -> int:
     """The load steps of a case with ``[instants]``, its results and exit code (inside
     :func:`run`'s handling of the output folder)."""
     from xfemcontact.history.stepping import Stepper
@@ -216,6 +234,7 @@ def _run_history(case, model, folder, checkpoints, outdir, pre, comm, quiet, t0)
     if not converged:
         diagnostics = diagnose(model, reason, outdir)
         f = stepper.failure
+        assert f is not None                         # not converged: the step that failed
         cut = f" after {f['level']} cut(s) (subd_niveau = {case.instants.subd_niveau})" \
             if case.instants.action == "DECOUPE" else " (echec action = ARRET)"
         head = f"{case.source}: no convergence at t = {f['inst']:g} (step from t = {f['start']:g}){cut}: "
@@ -256,12 +275,13 @@ def _run_history(case, model, folder, checkpoints, outdir, pre, comm, quiet, t0)
         say(comm, f"NOT CONVERGED: results of {len(stepper.steps)} completed step(s) and diagnostics "
                   f"in {outdir}/ (results.json: \"converged\": false; {len(case.tests)} test(s) "
                   f"not evaluated){kept}")
+        assert diagnostics is not None               # made when not converged
         raise ConvergenceError(diagnostics["message"], diagnostics=diagnostics)
     say(comm, f"results in {outdir}/ ({timing.TIMINGS['total']:.2f} s)")
     return 0 if all(o.ok for o in outcomes) else 1
 
 
-def _checkpointed(checkpoints, outdir):
+def _checkpointed(checkpoints: Checkpoints | None, outdir: str) -> str:
     """``; N completed step(s) checkpointed in ... (resume with --restart)`` or ""."""
     if checkpoints is None or checkpoints.comm.rank != 0:
         return ""
@@ -275,14 +295,14 @@ def _checkpointed(checkpoints, outdir):
             f"{checkpoints.path} (resume with --restart)")
 
 
-def warn(comm, *lines):
+def warn(comm: PETSc.Comm, *lines: str) -> None:
     """Warnings: on stderr, once (rank 0), each line prefixed with ``warning:``."""
     if comm.rank == 0:
         for line in lines:
             print(f"warning: {line}", file=sys.stderr, flush=True)
 
 
-def _os_reason(exc):
+def _os_reason(exc: OSError) -> str:
     """Why a file could not be written, in a few words (HDF5 hides errno in its text)."""
     import re
 
@@ -295,7 +315,7 @@ def _os_reason(exc):
     return f"{reason} ({Path(name).name})" if name else reason
 
 
-def _named(exc, case):
+def _named(exc: GeometryError, case: Case) -> GeometryError:
     """A GeometryError of the cut ("level set: ...") naming the case file and its key."""
     itf = case.interface
     key = "interface.level_set" if itf is None or itf.level_set is not None else \
@@ -305,7 +325,7 @@ def _named(exc, case):
     return type(exc)(f"{case.source}: {key}: {text}", collective=exc.collective)
 
 
-def _untouched(outdir):
+def _untouched(outdir: str | None) -> str:
     if outdir and Path(outdir).is_dir():
         return f"previous results in {outdir} kept"
     return "no results written"
