@@ -14,7 +14,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from xfemcontact.case import Case, load_case, schema
-from xfemcontact.case.formula import Condition, Formula, FormulaError
+from xfemcontact.case.formula import Condition, FormulaError
 from xfemcontact.case.functions import TimeFormula
 from xfemcontact.case.load import Material
 from xfemcontact.errors import CaseError, XfcError
