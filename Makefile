@@ -23,19 +23,23 @@ DEBS := python3-petsc4py-real python3-mpi4py openmpi-bin python3-meshio \
         python3-h5py python3-numpy python3-scipy python3-matplotlib \
         python3-pytest python3-venv libopenblas0-pthread
 PYPI := hypothesis pymetis
+# `make lint` only; pinned: a newer mypy may find new things to say about the same code
+LINT_PYPI := mypy==2.4.1 pyflakes==4.1.0
 
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP_DEBS := $(VENV)/.debs-installed
 STAMP_PKG := $(VENV)/.package-installed
+STAMP_LINT := $(VENV)/.lint-installed
 CASE ?= cases/ssnv509a.toml
 OUT ?= out
 
-.PHONY: help setup run test test-fast bench bench-quick bench-large clean bytecode
+.PHONY: help setup run test test-fast lint bench bench-quick bench-large clean bytecode
 
 help:
 	@echo "make run     solve $(CASE) and print its test table (output in $(OUT)/)"
 	@echo "make test    run the whole test suite (MPI tests included)"
+	@echo "make lint    pyflakes (package, tests, bench, cases) and mypy (package, mypy.ini)"
 	@echo "make bench   run the benchmark series (bench/): N = 20 ... 320 and QUAD8 640, 1000 (about 30 min)"
 	@echo "make bench-quick   only N = 20 ... 320 (QUAD8, TRIA6, 1 and 2 processes; about 5 min)"
 	@echo "make setup   install Debian packages, .venv and the package only"
@@ -73,6 +77,14 @@ test: bytecode
 test-fast: bytecode
 	$(PY) -m pytest -q -m "not slow" tests
 
+$(STAMP_LINT): $(STAMP_PKG)
+	@$(PY) -m pip install -q --disable-pip-version-check $(LINT_PYPI)
+	@touch $@
+
+lint: $(STAMP_LINT)
+	$(PY) -m pyflakes xfemcontact tests bench cases
+	$(PY) -m mypy
+
 # N = 20 ... 320, QUAD8 and TRIA6, 1 and 2 processes -> bench/results/series.{md,json,png};
 # QUAD8 640 and 1000 (2.5 and 6 million dofs), 1 and 2 processes -> bench/results/large.*
 bench: bench-quick bench-large
@@ -84,4 +96,4 @@ bench-large: bytecode
 	$(PY) bench/run_series.py --cells QUAD8 --sizes 640 1000 --procs 1 2 --name large
 
 clean:
-	rm -rf $(VENV) out build *.egg-info .pytest_cache
+	rm -rf $(VENV) out build *.egg-info .pytest_cache .mypy_cache
