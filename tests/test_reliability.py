@@ -880,3 +880,42 @@ def test_max_error_test_without_interface_points(tmp_path):
     assert "Traceback" not in proc.stderr
     assert any(line.startswith("NOOK") and "no point selected" in line
                for line in proc.stdout.splitlines())
+
+
+ONE_CELL = """\
+title = "one cell"
+[mesh]
+rectangle = { nx = 1, ny = 1, x = [0.0, 1.0], y = [0.0, 1.0], cell = "QUAD8" }
+[material]
+E = 1.0e6
+nu = 0.3
+[[dirichlet]]
+group = "bottom"
+DX = 0.0
+DY = 0.0
+[[traction]]
+group = "top"
+FY = -1.0
+[[test]]
+field = "SIYY"
+type = "MIN"
+reference = -1.0
+tolerance = 0.1
+criterion = "ABSOLU"
+[output]
+plots = false
+"""
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("np_", [2, 3])
+def test_more_processes_than_cells(tmp_path, np_):
+    """A process without cells skipped a collective call (the job hung forever) and then
+    had no stress samples for the tests (a traceback); it now takes part with nothing."""
+    case = write_case(tmp_path, ONE_CELL)
+    one = run_cli(["run", case, "-o", tmp_path / "one"], timeout=TIMEOUT)
+    many = run_cli(["run", case, "-o", tmp_path / "many"], np=np_, timeout=TIMEOUT)
+    assert one.returncode == 0 and many.returncode == 0, many.stdout + many.stderr
+    a, b = results(tmp_path / "one"), results(tmp_path / "many")
+    assert b["processes"] == np_
+    assert a["tests"][0]["value"] == pytest.approx(b["tests"][0]["value"], rel=1e-12, abs=1e-12)

@@ -299,7 +299,7 @@ class Model:
 
     def run_warnings(self) -> list[str]:
         """Warnings of the solve (one line each)."""
-        found = list(getattr(self.problem, "warnings", None) or [])
+        found = list(self.problem.warnings) if self.problem is not None else []
         return found + (self.solver.warnings() if self.solver is not None else [])
 
     def release_factors(self) -> None:

@@ -71,7 +71,9 @@ def cell_samples(model: Model, values: Iterable[PointValues]) -> testtable.Sampl
         xs.append(v.x[..., 0][live])
         ys.append(v.x[..., 1][live])
         stresses.append(v.stress[live])
-    s = np.concatenate(stresses) if stresses else np.zeros((0, 3))
+    if not stresses:                     # a process without cells (more processes than cells)
+        xs, ys, stresses = [np.zeros(0)], [np.zeros(0)], [np.zeros((0, 3))]
+    s = np.concatenate(stresses)
     return testtable.Samples(np.concatenate(xs), np.concatenate(ys),
                           {"SIXX": s[:, 0], "SIYY": s[:, 1], "SIXY": s[:, 2]})
 

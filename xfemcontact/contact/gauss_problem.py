@@ -56,6 +56,7 @@ class GaussContactProblem(InterfaceProblem):
     def __init__(self, setup: InterfaceSetup) -> None:
         mesh, c = setup.mesh, setup.case.contact
         self.comm = mesh.comm
+        self.warnings = []
         self.segments, self.points, self.space = setup.geo.segments(), setup.points, setup.space
         dofs = multiplier_dofs(mesh, setup.layout, setup.space, self.segments)
         self.rep_index = dofs.rep_index

@@ -117,7 +117,7 @@ class NodalContactProblem(InterfaceProblem):
         self._kinematics(mesh.element, setup.points)
         self._dependent_vertices()
         scales = coefficients(setup.case, mesh, setup.geo)
-        self.warnings: list[str] = []
+        self.warnings = []
         self._coef_frot, self._h = scales.coef_frot, scales.h
         self._kappa = setup.case.material.E / scales.h     # Pa/m: weighs the rows of the dofs
         self.rho_n = self._row_scale(scales.coef_cont, "coef_cont", "Pa/m")

@@ -120,6 +120,7 @@ class InterfaceProblem:
     segments: Segments
     points: SegmentPoints
     law: PointLaw | None                     # the Gauss-point law (None: conditions at the dofs)
+    warnings: list[str]                      # of the set-up, one line each (results.json)
     loops: tuple[str, ...] = ()
     friction: bool = False
     fallbacks: bool = False
@@ -135,7 +136,7 @@ class InterfaceProblem:
 
     def __init__(self, setup: InterfaceSetup, bonded: bool = False) -> None:
         self.comm = setup.mesh.comm
-        self.warnings: list[str] = []        # of the set-up, one line each
+        self.warnings = []
         segs = setup.geo.segments()
         k, nv = len(segs), setup.mesh.element.nv
         self.segments, self.points = segs, setup.points

@@ -75,7 +75,7 @@ class DofLayout:
         #: the PetscSections of the dofs (None after release_setup)
         self.section: PETSc.Section | None = section
         self.global_section: PETSc.Section | None = global_section
-        lg = dm.getLGMap().getIndices() if section.getStorageSize() else np.zeros(0, PETSc.IntType)
+        lg = dm.getLGMap().getIndices()           # collective: every process, with or without dofs
         #: global index of every local dof (-1 constrained)
         self.lg: IntArray = np.asarray(lg, dtype=PETSc.IntType)
         self._index_arrays(self.lg, section, global_section)
