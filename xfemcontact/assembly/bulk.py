@@ -77,7 +77,7 @@ class PlainStiffness:
         self.el = el
         self.C = elasticity.tensor(D)
         # exact rules for affine cells; the same rule for curved ones
-        self.q, self.wq = el.quadrature(4 if el.nv == 4 else 2)
+        self.q, self.wq = el.quadrature(el.stiffness_degree)
         self.q_gen, self.wq_gen = el.quadrature(4)
         self.basis = elasticity.affine_basis(elasticity.reference_products(el.dshape(self.q), self.wq), self.C)
 
@@ -88,7 +88,7 @@ class PlainStiffness:
         aff = affine_cells(el, x) if aff is None else aff
         if aff.all():               # no copy into a new array (may be a broadcast view)
             return elasticity.affine_stiffness(el.jacobians(x, el.ref_nodes[:1])[:, 0], self.basis)
-        K = np.empty((len(x), 2 * el.nn, 2 * el.nn))
+        K = np.empty((len(x), el.dim * el.nn, el.dim * el.nn))
         if aff.any():
             xa = x[aff]
             J = el.jacobians(xa, el.ref_nodes[:1])[:, 0]
