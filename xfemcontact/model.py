@@ -20,6 +20,7 @@ import numpy as np
 from xfemcontact import preflight
 from xfemcontact._petsc import PETSc
 from xfemcontact.assembly import pattern, system
+from xfemcontact.fem.coordinates import coordinates
 from xfemcontact.contact import laws
 from xfemcontact.contact.problem import InterfaceSetup
 from xfemcontact.dofs import constraints
@@ -107,7 +108,7 @@ class Model:
         mesh, geo, law = self.mesh, self.geo, self.law
         x = mesh.x
         fixed, values = constraints.fixed_components(
-            mesh, self.case, geo, law, lambda nodes, f: f(x=x[nodes, 0], y=x[nodes, 1]))
+            mesh, self.case, geo, law, lambda nodes, f: f(**coordinates(x[nodes])))
         enriched = geo.enriched if geo is not None else np.zeros(len(x), bool)
         multiplier = np.zeros(len(x), bool)
         space = points = None

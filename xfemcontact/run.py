@@ -19,7 +19,7 @@ import numpy as np
 
 from xfemcontact import options, preflight, timing
 from xfemcontact._petsc import PETSc
-from xfemcontact.case import load_case
+from xfemcontact.case import load_case, schema
 from xfemcontact.errors import ConvergenceError, GeometryError, Interrupted, XfcError
 from xfemcontact.output import results
 from xfemcontact.output.folder import OutputFolder
@@ -48,19 +48,23 @@ def _stdout_to_null():
 def node_samples(model, u):
     own = model.mesh.node_owned
     x = model.mesh.x[own]
-    return testtable.Samples(x[:, 0], x[:, 1], {"DX": u[own, 0], "DY": u[own, 1]})
+    names = model.case.components
+    return testtable.Samples(x[:, 0], x[:, 1], {c: u[own, i] for i, c in enumerate(names)},
+                             z=x[:, 2] if x.shape[1] == 3 else None)
 
 
 def cell_samples(model, values):
-    xs, ys, s = [], [], []
+    d = model.mesh.dim
+    names = schema.CELL_FIELDS_3D if d == 3 else schema.CELL_FIELDS
+    xs, s = [], []
     for v in values:
         live = v.w > 0
-        xs.append(v.x[..., 0][live])
-        ys.append(v.x[..., 1][live])
+        xs.append(v.x[live])
         s.append(v.stress[live])
-    s = np.concatenate(s) if s else np.zeros((0, 3))
-    return testtable.Samples(np.concatenate(xs), np.concatenate(ys),
-                          {"SIXX": s[:, 0], "SIYY": s[:, 1], "SIXY": s[:, 2]})
+    x = np.concatenate(xs) if xs else np.zeros((0, d))
+    s = np.concatenate(s) if s else np.zeros((0, len(names)))
+    return testtable.Samples(x[:, 0], x[:, 1], {name: s[:, i] for i, name in enumerate(names)},
+                             z=x[:, 2] if d == 3 else None)
 
 
 def test_samples(model, tests):

@@ -2,8 +2,8 @@
 
 A *batch* is a set of cells sharing a dof layout:
 
-* plain cells: functions ``N_a`` of the cell's nodes, dofs ``(DX, DY)``;
-* enriched cells: functions ``N_a`` then ``psi_a N_a`` (shifted Heaviside,
+* plain cells: functions ``N_a`` of the cell's nodes, dofs ``(DX, DY, [DZ])``;
+* enriched cells (2-D): functions ``N_a`` then ``psi_a N_a`` (shifted Heaviside,
   constant on each integration sub-cell), dofs ``(DX, DY)`` then ``(H1X, H1Y)``
   -- absent Heaviside dofs point to a slot that is always zero.
 
@@ -47,13 +47,13 @@ class Batch:
         return len(self.cells)
 
 
-def _blocked(arr2: IntArray, nodes: IntArray) -> IntArray:
-    """``(ne, 2 nn)`` component-blocked indices from per-node ``arr2 (n, 2)``."""
-    return np.concatenate([arr2[nodes, 0], arr2[nodes, 1]], axis=1)
+def _blocked(arr: IntArray, nodes: IntArray) -> IntArray:
+    """``(ne, d nn)`` component-blocked indices from per-node ``arr (n, d)``."""
+    return np.concatenate([arr[nodes, c] for c in range(arr.shape[1])], axis=1)
 
 
 def plain_batch(mesh: LocalMesh, layout: DofLayout, cells: IntArray) -> Batch:
-    """Batch of plain cells: functions N_a, dofs (DX.., DY..)."""
+    """Batch of plain cells: functions N_a, dofs (DX.., DY.., [DZ..])."""
     nodes = mesh.cell_nodes[cells]
     loc = _blocked(layout.u_local, nodes)
     return Batch(cells, loc, _blocked(layout.u_global, nodes))
@@ -82,7 +82,7 @@ class PlainStiffness:
         self.basis = elasticity.affine_basis(elasticity.reference_products(el.dshape(self.q), self.wq), self.C)
 
     def __call__(self, x: FloatArray, aff: BoolArray | None = None) -> FloatArray:
-        """Element matrices ``(ne, 2 nn, 2 nn)`` of cells ``x (ne, nn, 2)`` (read-only);
+        """Element matrices ``(ne, d nn, d nn)`` of cells ``x (ne, nn, d)`` (read-only);
         ``aff``: which cells are affine (:func:`elements.affine_cells`) if known."""
         el = self.el
         aff = affine_cells(el, x) if aff is None else aff

@@ -459,3 +459,20 @@ def physical_gradients(dshape_ref: FloatArray, J: FloatArray) -> tuple[FloatArra
     g0, g1 = dshape_ref[..., 0], dshape_ref[..., 1]
     # dN/dx_j = sum_i dN/dxi_i dxi_i/dx_j  (broadcast products beat batched 2x2 matmuls)
     return np.stack([g0 * d - g1 * c, g1 * a - g0 * b], axis=-1), det
+
+
+def surface_geometry(el: Element, x: FloatArray, xi: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Points ``(k, nq, 3)``, area elements ``(k, nq)`` (m^2 per unit reference area) and
+    unit normals ``(k, nq, 3)`` of the faces ``x (k, nn, 3)`` of 3-D cells, described by
+    the 2-D element ``el`` (QUAD8, TRIA6), at its reference points ``xi (nq, 2)``.
+
+    The surface Jacobian is the pair of tangents dx/dxi_1, dx/dxi_2; their cross
+    product is the normal times the area element (outward for the faces of
+    :attr:`Element.faces`).
+    """
+    N, dN = el.shape(xi), el.dshape(xi)                       # (nq, nn), (nq, nn, 2)
+    pts = np.einsum("qa,kai->kqi", N, x)
+    t = np.einsum("qaj,kai->kqij", dN, x)                     # (k, nq, 3, 2)
+    n = np.cross(t[..., 0], t[..., 1])
+    da = np.linalg.norm(n, axis=-1)
+    return pts, da, n / da[..., None]
