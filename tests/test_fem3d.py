@@ -580,3 +580,33 @@ def test_readme_example_runs(tmp_path):
     m = meshio.read(tmp_path / "out" / "fields.xdmf")
     assert m.cells[0].type == "hexahedron20" and "DZ" in m.point_data and "SIZZ" in m.cell_data
     assert not (tmp_path / "out" / "plot_deformed.png").exists()
+
+
+def test_3d_refusals_before_the_set_up(tmp_path):
+    """Rigid-body motions left free, a 3-D mesh file with a plane model, tractions on a
+    node group: one line each, exit code 2."""
+    free = MPI_CASE.replace("CELL", "TETRA10").replace("DZ = 0\n", "")
+    done = run_cli(["run", write_case(tmp_path, free, "free.toml"), "-o", tmp_path / "o1"])
+    assert done.returncode == 2
+    assert ("rigid-body motion not prevented: nothing imposes DZ (translation in z is free); "
+            "2 rotations are free") in done.stderr, done.stderr
+    plane = f"""
+        [mesh]
+        file = "{MESHES / 'jittered_tetra10.msh'}"
+        [material]
+        E = 1e5
+        nu = 0.3
+        [[dirichlet]]
+        group = "bottom"
+        DX = 0
+        DY = 0
+        """
+    done = run_cli(["run", write_case(tmp_path, plane, "plane.toml"), "-o", tmp_path / "o2"])
+    assert done.returncode == 2
+    assert 'TETRA10 cells are 3-D but material.model = "C_PLAN" is 2-D (use model = "3D")' in done.stderr
+    on_nodes = MPI_CASE.replace("CELL", "HEXA20").replace('group = "right"', 'group = "P2"')
+    done = run_cli(["run", write_case(tmp_path, on_nodes, "nodes.toml"), "-o", tmp_path / "o3"])
+    assert done.returncode == 2
+    assert "'P2' is a node group of box; tractions (FORCE_FACE, PRES_REP) act on face groups" in done.stderr
+    for d in (done,):
+        assert len([line for line in d.stderr.splitlines() if line.strip()]) == 1

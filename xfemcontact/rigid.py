@@ -53,9 +53,10 @@ def free_motions(rows: FloatArray, d: int) -> str | None:
     m = d + (1 if d == 2 else 3)
     if len(rows) == 0:
         null = np.eye(m)
-    else:
-        _, sv, vt = np.linalg.svd(rows, full_matrices=True)
-        rank = int((sv > RANK_TOL * sv.max()).sum()) if sv.size and sv.max() > 0 else 0
+    else:                             # padded to m rows: V holds the whole null space
+        padded = np.vstack([rows, np.zeros((max(0, m - len(rows)), m))])
+        _, sv, vt = np.linalg.svd(padded, full_matrices=False)
+        rank = int((sv > RANK_TOL * sv.max()).sum()) if sv.max() > 0 else 0
         null = vt[rank:].T                                           # (m, free)
     if null.shape[1] == 0:
         return None
