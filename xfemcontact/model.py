@@ -25,7 +25,7 @@ from xfemcontact.contact import laws
 from xfemcontact.contact.problem import InterfaceSetup
 from xfemcontact.dofs import constraints
 from xfemcontact.dofs.layout import DofLayout
-from xfemcontact.errors import MeshError
+from xfemcontact.errors import GeometryError, MeshError
 from xfemcontact.fem.elasticity import hooke
 from xfemcontact.mesh import plex
 from xfemcontact.mesh.build import build_raw_mesh
@@ -102,6 +102,9 @@ class Model:
         if missed:                       # no interface in the domain: solve without one
             self.warnings.append(missed)
             return None
+        if mesh.dim == 3:                # preflight refuses it first on the command line
+            raise GeometryError(f"{self.case.source}: interface: the level set cuts the 3-D mesh: "
+                                f"X-FEM interfaces in 3-D are not there yet")
         return geometry.build(mesh, phi)
 
     def _layout(self):
