@@ -50,8 +50,13 @@ def row_keys(rows: IntArray) -> IntArray:
     numbered in lexicographic order)."""
     if len(rows) == 0:
         return np.zeros(0, np.int64)
-    _, inverse = np.unique(np.sort(rows, axis=1), axis=0, return_inverse=True)
-    return inverse.reshape(-1).astype(np.int64)
+    r = np.sort(rows, axis=1)
+    order = np.lexsort(r.T[::-1])                 # (np.unique on rows sorts 10 x slower)
+    ranked = r[order]
+    fresh = np.r_[True, (ranked[1:] != ranked[:-1]).any(axis=1)]
+    out = np.empty(len(r), np.int64)
+    out[order] = np.cumsum(fresh) - 1
+    return out
 
 
 def match_rows(rows: IntArray, table: IntArray) -> IntArray:
@@ -66,10 +71,15 @@ def match_rows(rows: IntArray, table: IntArray) -> IntArray:
     return np.where(t[found] == r, found, -1)
 
 
-def _face_vertices(dm: PETSc.DMPlex, faces: IntArray, edges_per_face: int) -> IntArray:
-    """Vertex points ``(k, edges_per_face)`` of faces (the distinct ends of their edges)."""
+def _face_vertices(dm: PETSc.DMPlex, faces: IntArray, edges_per_face: int,
+                   edge_ends: IntArray | None = None) -> IntArray:
+    """Vertex points ``(k, edges_per_face)`` of faces (the distinct ends of their edges);
+    ``edge_ends (ne, 2)``: the vertex points of every edge point, if known."""
     e = cones(dm, faces, edges_per_face)
-    ends = cones(dm, e.ravel(), 2).reshape(len(faces), -1)
+    if edge_ends is None:
+        ends = cones(dm, e.ravel(), 2).reshape(len(faces), -1)
+    else:
+        ends = edge_ends[e - dm.getDepthStratum(1)[0]].reshape(len(faces), -1)
     ends = np.sort(ends, axis=1)
     return ends[:, ::2]               # every vertex is the end of two of the face's edges
 
@@ -139,7 +149,7 @@ def _label_groups(dm: PETSc.DMPlex, raw: RawMesh, vnodes: IntArray, vindex: IntA
         if name in raw.face_groups:
             if face_vertices is None:
                 nef = dm.getConeSize(fs) if fe > fs else 0
-                face_vertices = _face_vertices(dm, np.arange(fs, fe), nef) - vs
+                face_vertices = _face_vertices(dm, np.arange(fs, fe), nef, edge_vertices + vs) - vs
             nvf = {6: 3, 8: 4}[raw.face_groups[name].shape[1]]
             rows = vindex[raw.face_groups[name][:, :nvf]]
             which = match_rows(rows, face_vertices) if (rows >= 0).all() else np.full(len(rows), -1)
