@@ -110,7 +110,7 @@ def rectangle_cells(spec: MeshSpec) -> tuple[str, int] | None:
     box, or None for a mesh file."""
     rect = spec.rectangle
     if rect is None:
-        box = spec.box
+        box = getattr(spec, "box", None)          # a spec written before boxes has none
         if box is None:
             return None
         per_cube = 6 if box["cell"] == "TETRA10" else 1
