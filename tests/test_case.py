@@ -251,7 +251,7 @@ BAD = [
     ({"contact.COEF_CONT": 1.0}, "contact.COEF_CONT: unknown key (did you mean 'coef_cont'?)"),
     ({"test[2].tolerence": 1.0}, "test[2].tolerence: unknown key (did you mean 'tolerance'?)"),
     ({"material.zzz": 1}, "material.zzz: unknown key (known: E, nu, model)"),
-    ({"reference.DZ": "x"}, "reference.DZ: unknown key (did you mean 'DX'?)"),
+    ({"reference.DZ": "x"}, 'reference.DZ: a 3-D component (set material.model = "3D" with a 3-D mesh)'),
     # wrong types
     ({"material.E": "abc"}, 'material.E: expected a number, got "abc"'),
     ({"material.nu": True}, "material.nu: expected a number, got true"),
@@ -268,7 +268,7 @@ BAD = [
     ({"output.plots": 1}, "output.plots: expected true, false or one of OUI, NON, got 1"),
     ({"material.model": "C_PLN"},
      'material.model: unknown value "C_PLN" (did you mean "C_PLAN"? expected one of C_PLAN, '
-     'D_PLAN)'),
+     'D_PLAN, 3D)'),
     ({"output.formats[1]": "pdf"},
      'output.formats[1]: unknown value "pdf" (expected one of xdmf, vtu, med)'),
     ({"contact.contact_init": "maybe"},
@@ -290,8 +290,8 @@ BAD = [
     ({"mesh.rectangle.x": [10.0, 0.0]},
      "mesh.rectangle.x: must be increasing [min, max], got [10.0, 0.0]"),
     # missing or conflicting keys
-    ({"mesh.file": "m.mmed"}, "mesh: give exactly one of 'file' or 'rectangle'"),
-    ({"mesh.rectangle": DELETE}, "mesh: give exactly one of 'file' or 'rectangle'"),
+    ({"mesh.file": "m.mmed"}, "mesh: give exactly one of 'file', 'rectangle' or 'box'"),
+    ({"mesh.rectangle": DELETE}, "mesh: give exactly one of 'file', 'rectangle' or 'box'"),
     ({"material": DELETE},
      "material: missing required table [material] (E, nu, model: the elastic material)"),
     ({"material.E": DELETE}, "material.E: missing required key (Young's modulus in Pa)"),
@@ -429,7 +429,7 @@ def test_messages_stay_on_one_line(here):
     write_case(here, doc)
     assert refusal(CaseError) == ('case.toml: material.model: unknown value '
                                   '"C_PLAN\\n\\u2028" (did you mean "C_PLAN"? '
-                                  'expected one of C_PLAN, D_PLAN)')
+                                  'expected one of C_PLAN, D_PLAN, 3D)')
     edit(doc, "material.model", "C_PLAN")
     edit(doc, "contact.bad\tkey", 1)
     write_case(here, doc)

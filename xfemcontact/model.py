@@ -22,11 +22,12 @@ import numpy as np
 from xfemcontact import preflight
 from xfemcontact._petsc import PETSc
 from xfemcontact.assembly import pattern, system
+from xfemcontact.fem.coordinates import coordinates
 from xfemcontact.contact import laws
 from xfemcontact.contact.problem import InterfaceSetup
 from xfemcontact.dofs import constraints
 from xfemcontact.dofs.layout import DofLayout
-from xfemcontact.errors import MeshError
+from xfemcontact.errors import GeometryError, MeshError
 from xfemcontact.fem.elasticity import hooke
 from xfemcontact.mesh import plex
 from xfemcontact.mesh.build import build_raw_mesh
@@ -140,13 +141,16 @@ class Model:
         if missed:                       # no interface in the domain: solve without one
             self.warnings.append(missed)
             return None
+        if mesh.dim == 3:                # preflight refuses it first on the command line
+            raise GeometryError(f"{self.case.source}: interface: the level set cuts the 3-D mesh: "
+                                f"X-FEM interfaces in 3-D are not there yet")
         return geometry.build(mesh, phi)
 
     def _layout(self) -> None:
         mesh, geo, law = self.mesh, self.geo, self.law
         x = mesh.x
         fixed, values = constraints.fixed_components(
-            mesh, self.case, geo, law, lambda nodes, f: f(x=x[nodes, 0], y=x[nodes, 1]))
+            mesh, self.case, geo, law, lambda nodes, f: f(**coordinates(x[nodes])))
         enriched = geo.enriched if geo is not None else np.zeros(len(x), bool)
         multiplier = np.zeros(len(x), bool)
         space: MultiplierSpace | None = None

@@ -43,6 +43,7 @@ import numpy as np
 from xfemcontact import resources
 from xfemcontact.contact import laws
 from xfemcontact.errors import CaseError, FormulaError, GeometryError, MeshError, XfcError
+from xfemcontact.fem.coordinates import coordinates
 from xfemcontact.mesh.build import build_raw_mesh
 from xfemcontact.xfem.levelset import ROUNDOFF, normalised     # rule 1 of the readjustment
 
@@ -101,15 +102,19 @@ def check_case(case: Case, comm: MPI.Comm | None = None) -> resources.Estimate |
     if size is None:
         return None
     nprocs = comm.size if comm is not None else 1
-    return resources.check_cells(size[0], size[1], nprocs, f"{case.source}: mesh.rectangle")
+    return resources.check_cells(size[0], size[1], nprocs, f"{case.source}: {case.mesh.key}")
 
 
 def rectangle_cells(spec: MeshSpec) -> tuple[str, int] | None:
-    """``(cell_type, cells)`` of a case's generated rectangle (refinement included), or
-    None for a mesh file."""
+    """``(cell_type, cells)`` of a case's generated rectangle (refinement included) or
+    box, or None for a mesh file."""
     rect = spec.rectangle
     if rect is None:
-        return None
+        box = getattr(spec, "box", None)          # a spec written before boxes has none
+        if box is None:
+            return None
+        per_cube = 6 if box["cell"] == "TETRA10" else 1
+        return box["cell"], int(box["nx"]) * int(box["ny"]) * int(box["nz"]) * per_cube
     cell = rect.get("cell", "QUAD8")
     per_square = 2 if cell == "TRIA6" else 1
     return cell, int(rect["nx"]) * int(rect["ny"]) * per_square * 4 ** int(spec.refine or 0)
@@ -127,8 +132,7 @@ def build_mesh(case: Case, comm: MPI.Comm | None = None) -> RawMesh | None:
         try:
             raw = build_raw_mesh(case)
         except XfcError as exc:
-            key = "mesh.file" if case.mesh.file is not None else "mesh.rectangle"
-            outcome = (type(exc).__name__, f"{case.source}: {key}: {exc}")
+            outcome = (type(exc).__name__, f"{case.source}: {case.mesh.key}: {exc}")
     _raise_shared(outcome, comm)
     return raw
 
@@ -173,17 +177,19 @@ def _preflight(case: Case, raw: RawMesh) -> Preflight:
     group_dimensions(case, raw)
     size = _extent(raw.points, raw.cells)
     if not MESH_EXTENT[0] <= size <= MESH_EXTENT[1]:
-        key = "mesh.file" if case.mesh.file is not None else "mesh.rectangle"
+        key = case.mesh.key
         raise CaseError(f"{case.source}: {key}: the mesh is {size:.3g} m across; xfemcontact "
                         f"works in SI units on meshes from {MESH_EXTENT[0]:g} to "
                         f"{MESH_EXTENT[1]:g} m across (check the unit of the coordinates)")
     used = np.flatnonzero(np.bincount(raw.cells.ravel(), minlength=len(raw.points)))  # sorted
     x = raw.points
-    interior = _interior_edges(raw.cells, raw.n_vertices_per_cell)
     for bc in case.dirichlet:
         nodes = _group_nodes(raw, bc.groups)
         for name, formula in bc.components.items():
-            formula(x=x[nodes, 0], y=x[nodes, 1])          # FormulaError names key and node
+            formula(**coordinates(x[nodes]))              # FormulaError names key and node
+    if raw.dim == 3:
+        return _preflight_3d(case, raw, used, result)
+    interior = _interior_edges(raw.cells, raw.n_vertices_per_cell)
     phi = None
     itf = case.interface
     if itf is not None:
@@ -232,19 +238,58 @@ def _preflight(case: Case, raw: RawMesh) -> Preflight:
     return result
 
 
+def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -> Preflight:
+    """What :func:`_preflight` checks of a 3-D mesh after the groups, the extent and the
+    imposed displacements: the level set (X-FEM interfaces are 2-D only for now) and
+    the rigid-body motions (:mod:`xfemcontact.rigid`)."""
+    from xfemcontact import rigid
+
+    itf = case.interface
+    if itf is not None:
+        x = raw.points
+        if itf.level_set is not None:
+            key = "interface.level_set"
+            values = itf.level_set(**coordinates(x[used]))
+        else:
+            key = "interface.level_set_field"
+            values = _field_values(case, raw, itf.level_set_field)[used]
+        phi = np.zeros(len(x))
+        phi[used] = normalised(np.where(np.isfinite(values), values, np.nan))
+        phi = _roundoff(raw.cells, phi)
+        if np.isnan(phi[used]).any():
+            raise MeshError(f"{case.source}: {key}: the level set is not finite at some nodes of "
+                            f"{raw.source}")
+        warning = levelset_meets_domain(np.where(phi[used] == 0, 0.0, values), None,
+                                        source=case.source, key=key)
+        if not warning:
+            raise GeometryError(f"{case.source}: {key}: the level set cuts the 3-D mesh (LN from "
+                                f"{values.min():.4g} to {values.max():.4g}): X-FEM interfaces in 3-D "
+                                f"are not there yet (3-D cases run without interface, or with a "
+                                f"level set of one sign on the mesh)")
+        result.warnings.append(warning)
+        result.interface = False
+    problem = rigid.check(case, raw)
+    if problem:
+        raise CaseError(problem)
+    return result
+
+
 # --- groups ------------------------------------------------------------------------------
 
 def group_dimensions(case: Case, raw: RawMesh) -> None:
     """CaseError when a load names a group of the wrong dimension: tractions act on edge
-    groups, imposed displacements on edge or node groups (not on cell groups)."""
-    mesh = raw.source if case.mesh.file is not None else "rectangle"
+    groups (face groups in 3-D), imposed displacements on face, edge or node groups (not
+    on cell groups)."""
+    mesh = raw.source if case.mesh.file is not None else case.mesh.name
+    side = "face" if raw.dim == 3 else "edge"
 
     def kinds(name: str) -> list[str]:
-        return [kind for kind, groups in (("edge", raw.edge_groups), ("node", raw.node_groups),
-                                          ("cell", raw.cell_groups)) if name in groups]
+        return [kind for kind, groups in (("face", raw.face_groups), ("edge", raw.edge_groups),
+                                          ("node", raw.node_groups), ("cell", raw.cell_groups))
+                if name in groups]
 
     def listed(kind: str) -> str:
-        names = sorted({"edge": raw.edge_groups, "node": raw.node_groups,
+        names = sorted({"face": raw.face_groups, "edge": raw.edge_groups, "node": raw.node_groups,
                         "cell": raw.cell_groups}[kind])
         return ", ".join(names[:20]) + (", ..." if len(names) > 20 else "") or "none"
 
@@ -252,17 +297,20 @@ def group_dimensions(case: Case, raw: RawMesh) -> None:
     for load in case.traction:
         for group in load.groups:
             found = kinds(group)
-            if "edge" not in found:
+            if side not in found:
+                what = "FORCE_FACE, PRES_REP" if side == "face" else "FORCE_CONTOUR, PRES_REP"
                 raise CaseError(f"{case.source}: {load.key}.group: '{group}' is a {found[0]} group "
-                                f"of {mesh}; tractions (FORCE_CONTOUR, PRES_REP) act on edge groups "
-                                f"(edge groups: {listed('edge')})")
+                                f"of {mesh}; tractions ({what}) act on {side} groups "
+                                f"({side} groups: {listed(side)})")
     for load in case.dirichlet:
         for group in load.groups:
             found = kinds(group)
             if found == ["cell"]:
+                faces = f"face groups: {listed('face')}; " if raw.dim == 3 else ""
                 raise CaseError(f"{case.source}: {load.key}.group: '{group}' is a cell group of "
-                                f"{mesh}; imposed displacements act on edge or node groups "
-                                f"(edge groups: {listed('edge')}; node groups: {listed('node')})")
+                                f"{mesh}; imposed displacements act on {'face, ' if faces else ''}"
+                                f"edge or node groups ({faces}edge groups: {listed('edge')}; node "
+                                f"groups: {listed('node')})")
 
 
 def _field_values(case: Case, raw: RawMesh, name: str | None) -> FloatArray:
@@ -600,7 +648,7 @@ def _extent(x: FloatArray, cells: IntArray) -> float:
     used = np.zeros(len(x), bool)
     used[cells.ravel()] = True
     xu = x[used]
-    return float(max(np.ptp(xu[:, 0]), np.ptp(xu[:, 1])))
+    return float(max(np.ptp(xu[:, c]) for c in range(xu.shape[1])))
 
 
 # --- how well the mesh represents the interface ---------------------------------------------

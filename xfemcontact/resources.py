@@ -38,14 +38,20 @@ if TYPE_CHECKING:
     from xfemcontact.errors import XfcError
 
 #: nodes per cell of large meshes (N x N rectangles: QUAD8 3 N^2 + 4 N + 1 nodes for
-#: N^2 cells, TRIA6 4 N^2 + 4 N + 1 for 2 N^2)
-NODES_PER_CELL = {"QUAD8": 3.0, "TRIA6": 2.0}
-#: nonzeros of the matrix's upper triangle per dof (measured at N = 320, bench)
-NNZ_PER_DOF = {"QUAD8": 13.1, "TRIA6": 12.2}
+#: N^2 cells, TRIA6 4 N^2 + 4 N + 1 for 2 N^2; N^3 boxes: HEXA20 about 4 N^3 nodes for
+#: N^3 cells, TETRA10 8 N^3 for 6 N^3)
+NODES_PER_CELL = {"QUAD8": 3.0, "TRIA6": 2.0, "HEXA20": 4.0, "TETRA10": 1.33}
+#: displacement dofs per node
+DOFS_PER_NODE = {"QUAD8": 2, "TRIA6": 2, "HEXA20": 3, "TETRA10": 3}
+#: nonzeros of the matrix's upper triangle per dof (2-D: measured at N = 320, bench;
+#: 3-D: measured on N^3 boxes, HEXA20 N = 16, TETRA10 N = 12)
+NNZ_PER_DOF = {"QUAD8": 13.1, "TRIA6": 12.2, "HEXA20": 78.4, "TETRA10": 39.2}
 #: MUMPS factor entries (INFOG(29)) at a reference size and their growth with the dofs
-#: (fitted to N = 160 .. 640: ``F = F_ref (n / n_ref) ** FACTOR_EXPONENT``, about n log^1.5 n)
-FACTOR_REFERENCE = {"QUAD8": (2469238, 412824463), "TRIA6": (3288532, 471584508)}
-FACTOR_EXPONENT = {"QUAD8": 1.115, "TRIA6": 1.11}
+#: (fitted to N = 160 .. 640: ``F = F_ref (n / n_ref) ** FACTOR_EXPONENT``, about n log^1.5 n
+#: in 2-D; about n^(4/3) in 3-D: HEXA20 boxes N = 16 and 24 give 1.35, used for both)
+FACTOR_REFERENCE = {"QUAD8": (2469238, 412824463), "TRIA6": (3288532, 471584508),
+                    "HEXA20": (56355, 64961777), "TETRA10": (46875, 34369350)}
+FACTOR_EXPONENT = {"QUAD8": 1.115, "TRIA6": 1.11, "HEXA20": 1.35, "TETRA10": 1.35}
 #: peak resident MB of one process: BASE + PER_DOF x dofs + PER_ENTRY x factor entries
 #: (the interpreter and libraries; the matrix, mesh, dof layout and vectors; MUMPS'
 #: factors, 8 bytes an entry, with its work space and copy of the matrix), fitted to
@@ -89,7 +95,7 @@ def estimate(cell_type: str, cells: int, nprocs: int = 1, nodes: int | None = No
     """The :class:`Estimate` for ``cells`` cells of ``cell_type`` on ``nprocs`` processes
     (``nodes`` if known, else from the cell count)."""
     nodes = int(nodes if nodes is not None else NODES_PER_CELL[cell_type] * cells)
-    dofs = 2 * nodes
+    dofs = DOFS_PER_NODE[cell_type] * nodes
     nnz = int(NNZ_PER_DOF[cell_type] * dofs)
     n_ref, f_ref = FACTOR_REFERENCE[cell_type]
     factor = int(f_ref * (dofs / n_ref) ** FACTOR_EXPONENT[cell_type])

@@ -22,7 +22,7 @@ import numpy as np
 
 from xfemcontact import options, preflight, timing
 from xfemcontact._petsc import PETSc
-from xfemcontact.case import load_case
+from xfemcontact.case import load_case, schema
 from xfemcontact.errors import ConvergenceError, GeometryError, Interrupted, XfcError
 from xfemcontact.output import results
 from xfemcontact.output.folder import OutputFolder
@@ -60,22 +60,25 @@ def node_samples(model: Model, u: NDArray[np.float64]) -> testtable.Samples:
     """DX, DY ``u (n, 2)`` at the nodes this process owns."""
     own = model.mesh.node_owned
     x = model.mesh.x[own]
-    return testtable.Samples(x[:, 0], x[:, 1], {"DX": u[own, 0], "DY": u[own, 1]})
+    names = model.case.components
+    return testtable.Samples(x[:, 0], x[:, 1], {c: u[own, i] for i, c in enumerate(names)},
+                             z=x[:, 2] if x.shape[1] == 3 else None)
 
 
 def cell_samples(model: Model, values: Iterable[PointValues]) -> testtable.Samples:
-    """SIXX, SIYY, SIXY at the quadrature points of ``values`` (those of positive weight)."""
-    xs, ys, stresses = [], [], []
+    """The stress components at the quadrature points of ``values`` (those of positive
+    weight); empty on a process without cells (more processes than cells)."""
+    d = model.mesh.dim
+    names = schema.CELL_FIELDS_3D if d == 3 else schema.CELL_FIELDS
+    xs, ss = [], []
     for v in values:
         live = v.w > 0
-        xs.append(v.x[..., 0][live])
-        ys.append(v.x[..., 1][live])
-        stresses.append(v.stress[live])
-    if not stresses:                     # a process without cells (more processes than cells)
-        xs, ys, stresses = [np.zeros(0)], [np.zeros(0)], [np.zeros((0, 3))]
-    s = np.concatenate(stresses)
-    return testtable.Samples(np.concatenate(xs), np.concatenate(ys),
-                          {"SIXX": s[:, 0], "SIYY": s[:, 1], "SIXY": s[:, 2]})
+        xs.append(v.x[live])
+        ss.append(v.stress[live])
+    x = np.concatenate(xs) if xs else np.zeros((0, d))
+    s = np.concatenate(ss) if ss else np.zeros((0, len(names)))
+    return testtable.Samples(x[:, 0], x[:, 1], {name: s[:, i] for i, name in enumerate(names)},
+                             z=x[:, 2] if d == 3 else None)
 
 
 def test_samples(model: Model, tests: Iterable[TestSpec]) -> dict[str, testtable.Samples]:

@@ -2,8 +2,8 @@
 
 A *batch* is a set of cells sharing a dof layout:
 
-* plain cells: functions ``N_a`` of the cell's nodes, dofs ``(DX, DY)``;
-* enriched cells: functions ``N_a`` then ``psi_a N_a`` (shifted Heaviside,
+* plain cells: functions ``N_a`` of the cell's nodes, dofs ``(DX, DY, [DZ])``;
+* enriched cells (2-D): functions ``N_a`` then ``psi_a N_a`` (shifted Heaviside,
   constant on each integration sub-cell), dofs ``(DX, DY)`` then ``(H1X, H1Y)``
   -- absent Heaviside dofs point to a slot that is always zero.
 
@@ -47,13 +47,13 @@ class Batch:
         return len(self.cells)
 
 
-def _blocked(arr2: IntArray, nodes: IntArray) -> IntArray:
-    """``(ne, 2 nn)`` component-blocked indices from per-node ``arr2 (n, 2)``."""
-    return np.concatenate([arr2[nodes, 0], arr2[nodes, 1]], axis=1)
+def _blocked(arr: IntArray, nodes: IntArray) -> IntArray:
+    """``(ne, d nn)`` component-blocked indices from per-node ``arr (n, d)``."""
+    return np.concatenate([arr[nodes, c] for c in range(arr.shape[1])], axis=1)
 
 
 def plain_batch(mesh: LocalMesh, layout: DofLayout, cells: IntArray) -> Batch:
-    """Batch of plain cells: functions N_a, dofs (DX.., DY..)."""
+    """Batch of plain cells: functions N_a, dofs (DX.., DY.., [DZ..])."""
     nodes = mesh.cell_nodes[cells]
     loc = _blocked(layout.u_local, nodes)
     return Batch(cells, loc, _blocked(layout.u_global, nodes))
@@ -77,18 +77,18 @@ class PlainStiffness:
         self.el = el
         self.C = elasticity.tensor(D)
         # exact rules for affine cells; the same rule for curved ones
-        self.q, self.wq = el.quadrature(4 if el.nv == 4 else 2)
+        self.q, self.wq = el.quadrature(el.stiffness_degree)
         self.q_gen, self.wq_gen = el.quadrature(4)
         self.basis = elasticity.affine_basis(elasticity.reference_products(el.dshape(self.q), self.wq), self.C)
 
     def __call__(self, x: FloatArray, aff: BoolArray | None = None) -> FloatArray:
-        """Element matrices ``(ne, 2 nn, 2 nn)`` of cells ``x (ne, nn, 2)`` (read-only);
+        """Element matrices ``(ne, d nn, d nn)`` of cells ``x (ne, nn, d)`` (read-only);
         ``aff``: which cells are affine (:func:`elements.affine_cells`) if known."""
         el = self.el
         aff = affine_cells(el, x) if aff is None else aff
         if aff.all():               # no copy into a new array (may be a broadcast view)
             return elasticity.affine_stiffness(el.jacobians(x, el.ref_nodes[:1])[:, 0], self.basis)
-        K = np.empty((len(x), 2 * el.nn, 2 * el.nn))
+        K = np.empty((len(x), el.dim * el.nn, el.dim * el.nn))
         if aff.any():
             xa = x[aff]
             J = el.jacobians(xa, el.ref_nodes[:1])[:, 0]

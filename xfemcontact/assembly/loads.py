@@ -1,9 +1,11 @@
 """External loads and imposed displacements.
 
 * Imposed displacements (code_aster DDL_IMPO / AFFE_CHAR_MECA_F): values of DX,
-  DY at the nodes of groups, numbers or formulas of (x, y).
-* Surface tractions on edges (FORCE_CONTOUR, N/m per unit length and unit
-  thickness, or PRES_REP pressure in Pa, positive pushing into the body).
+  DY (DZ) at the nodes of groups, numbers or formulas of (x, y (, z)).
+* Surface tractions on edges in 2-D (FORCE_CONTOUR, N/m per unit length and unit
+  thickness), on faces in 3-D (FORCE_FACE, Pa), or PRES_REP pressure in Pa,
+  positive pushing into the body.  Faces are integrated with their own element
+  (QUAD8, TRIA6) and a surface Jacobian.
 * Body forces (FORCE_INTERNE, N/m^3).
 
 Loads are integrated into local work arrays (``layout.local_array()``) with the
@@ -17,7 +19,8 @@ from typing import TYPE_CHECKING, Callable, Iterable
 
 import numpy as np
 
-from xfemcontact.fem.elements import Seg3
+from xfemcontact.fem.coordinates import coordinates
+from xfemcontact.fem.elements import Seg3, element, surface_geometry
 from xfemcontact.fem.quadrature import gauss_segment
 
 if TYPE_CHECKING:
@@ -63,13 +66,25 @@ def edge_geometry(xe: FloatArray, s: FloatArray) -> tuple[FloatArray, FloatArray
 
 
 def traction_vectors(spec: Traction, pts: FloatArray, normal: FloatArray) -> FloatArray:
-    """Traction ``(k, nq, 2)`` in N/m of a traction spec at points ``pts``."""
-    x, y = pts[..., 0], pts[..., 1]
+    """Traction ``(k, nq, d)`` (N/m in 2-D, Pa in 3-D) of a traction spec at points
+    ``pts (k, nq, d)`` with outward unit normals ``normal``."""
+    xyz = coordinates(pts)
     if spec.pressure is not None:
-        return -spec.pressure(x=x, y=y)[..., None] * normal
+        return -spec.pressure(**xyz)[..., None] * normal
     force = spec.force
     assert force is not None                 # a traction gives a force or a pressure
-    return np.stack([force["FX"](x=x, y=y), force["FY"](x=x, y=y)], axis=-1)
+    return np.stack([force[name](**xyz) for name in ("FX", "FY", "FZ")[:pts.shape[-1]]], axis=-1)
+
+
+def face_forces(xf: FloatArray, face_type: str, spec: Traction, degree: int = 5) -> FloatArray:
+    """Nodal forces ``(k, 3, nf)`` (component, face node) of a traction on the faces
+    ``xf (k, nf, 3)`` of 3-D cells (outward, element ``face_type``), integrated with
+    a rule exact to ``degree`` on the face's reference element."""
+    el = element(face_type)
+    q, wq = el.quadrature(degree)
+    pts, da, normal = surface_geometry(el, xf, q)
+    t = traction_vectors(spec, pts, normal)
+    return np.einsum("kq,kqi,qa->kia", wq[None] * da, t, el.shape(q))
 
 
 def edge_forces(xe: FloatArray, spec: Traction,
@@ -93,8 +108,8 @@ def edge_forces(xe: FloatArray, spec: Traction,
 
 
 def body_forces(G_values: FloatArray, w: FloatArray, pts: FloatArray, body: BodyForce) -> FloatArray:
-    """Nodal forces ``(ne, 2, nf)`` of body force ``body`` at points ``pts (ne, nq, 2)``
+    """Nodal forces ``(ne, d, nf)`` of body force ``body`` at points ``pts (ne, nq, d)``
     for functions with values ``G_values (ne, nq, nf)`` and weights ``w (ne, nq)``."""
-    x, y = pts[..., 0], pts[..., 1]
-    b = np.stack([body.FX(x=x, y=y), body.FY(x=x, y=y)], axis=-1)
+    xyz = coordinates(pts)
+    b = np.stack([f(**xyz) for f in body.components], axis=-1)
     return np.einsum("eq,eqi,eqf->eif", w, b, G_values)

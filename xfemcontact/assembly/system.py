@@ -35,9 +35,9 @@ if TYPE_CHECKING:
 
 
 def bc_array(layout: DofLayout, fixed: BoolArray, values: FloatArray) -> FloatArray:
-    """Local work array with the imposed values (DX, DY) at constrained dofs."""
+    """Local work array with the imposed values (DX, DY, [DZ]) at constrained dofs."""
     x = layout.local_array()
-    for c in range(2):
+    for c in range(layout.dim):
         m = fixed[:, c]
         x[layout.u_local[m, c]] = values[m, c]
     return x
@@ -96,8 +96,13 @@ def add_body_forces(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, bo
 
 def add_tractions(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, traction: Iterable[Traction],
                   f_local: FloatArray) -> None:
-    """Surface tractions of the case into ``f_local``, edges split by the interface."""
+    """Surface tractions of the case into ``f_local``: on edges in 2-D (split by the
+    interface), on faces in 3-D."""
     for spec in traction:
+        if mesh.dim == 3:
+            for g in spec.groups:
+                add_face_tractions(mesh, layout, mesh.group_faces(g)[0], spec, f_local)
+            continue
         for g in spec.groups:
             nodes, _, _ = mesh.group_edges(g)
             if len(nodes) == 0:
@@ -105,6 +110,16 @@ def add_tractions(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, trac
             xe = mesh.x[nodes]
             fe = _edge_forces_by_side(mesh, geo, nodes, xe, spec)        # (k, 2, 6)
             np.add.at(f_local, _edge_dofs(layout, nodes), fe.reshape(len(nodes), fe.shape[1] * fe.shape[2]))
+
+
+def add_face_tractions(mesh: LocalMesh, layout: DofLayout, nodes: IntArray, spec: Traction,
+                       f_local: FloatArray) -> None:
+    """Forces of traction ``spec`` on the faces ``nodes (k, nf)`` (outward, in their
+    element's order) of a 3-D mesh into ``f_local``."""
+    if len(nodes) == 0:
+        return
+    fe = loads.face_forces(mesh.x[nodes], mesh.element.face_type, spec)    # (k, 3, nf)
+    np.add.at(f_local, bulk._blocked(layout.u_local, nodes), fe.reshape(len(nodes), -1))
 
 
 def _edge_dofs(layout: DofLayout, nodes: IntArray) -> IntArray:

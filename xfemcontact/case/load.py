@@ -32,10 +32,23 @@ __all__ = ["load_case", "Case", "MeshSpec", "Material", "Dirichlet", "Traction",
 
 @dataclass(frozen=True)
 class MeshSpec:
-    file: Path | None                 # resolved; None for a rectangle
+    file: Path | None                 # resolved; None for a rectangle or a box
     rectangle: dict[str, Any] | None  # keyword arguments of mesh.generate.rectangle
     refine: int
     key_file: str = "mesh.file"
+    box: dict[str, Any] | None = None     # keyword arguments of mesh.generate.box
+
+    @property
+    def key(self) -> str:
+        """The case key of the mesh: ``mesh.file``, ``mesh.rectangle`` or ``mesh.box``."""
+        return "mesh.file" if self.file is not None else \
+            "mesh.rectangle" if self.rectangle is not None else "mesh.box"
+
+    @property
+    def name(self) -> str:
+        """The mesh in messages: the file's name, "rectangle" or "box"."""
+        return self.file.name if self.file is not None else \
+            "rectangle" if self.rectangle is not None else "box"
 
 
 # The tables below hold the keys of their schema table (xfemcontact.case.schema, where
@@ -43,7 +56,7 @@ class MeshSpec:
 
 @dataclass(frozen=True)
 class Material:
-    """``[material]``: E in Pa, nu, C_PLAN or D_PLAN."""
+    """``[material]``: E in Pa, nu, C_PLAN, D_PLAN or 3D."""
     E: float
     nu: float
     model: str
@@ -54,17 +67,18 @@ class Dirichlet:
     """One ``[[dirichlet]]``: imposed displacements (m) on groups."""
 
     groups: tuple[str, ...]
-    components: dict[str, TimeFormula]  # {"DX": TimeFormula, "DY": TimeFormula}, those given only
+    components: dict[str, TimeFormula]  # {"DX": TimeFormula, "DY": ..., "DZ": ...}, those given only
     key: str                          # "dirichlet[0]"
     fonc_mult: str | None = None      # name of the [functions] table multiplying it
 
 
 @dataclass(frozen=True)
 class Traction:
-    """One ``[[traction]]``: a force per unit length (N/m) or a pressure (Pa) on edge groups."""
+    """One ``[[traction]]``: a force per unit length (N/m) or a pressure (Pa) on edge groups;
+    in 3-D a force per unit area (Pa) or a pressure on face groups."""
 
     groups: tuple[str, ...]
-    force: dict[str, TimeFormula] | None  # {"FX": ..., "FY": ...} (missing one = 0)
+    force: dict[str, TimeFormula] | None  # {"FX": ..., "FY": ..., ["FZ": ...]} (missing one = 0)
     pressure: TimeFormula | None
     key: str                          # "traction[0]"
     fonc_mult: str | None = None
@@ -72,10 +86,16 @@ class Traction:
 
 @dataclass(frozen=True)
 class BodyForce:
-    """``[body_force]``: force per unit volume, N/m^3."""
+    """``[body_force]``: force per unit volume, N/m^3 (FZ: 3-D cases, None in 2-D)."""
     FX: TimeFormula
     FY: TimeFormula
     fonc_mult: str | None = None
+    FZ: TimeFormula | None = None
+
+    @property
+    def components(self) -> tuple[TimeFormula, ...]:
+        """FX, FY and, in 3-D, FZ."""
+        return (self.FX, self.FY) if self.FZ is None else (self.FX, self.FY, self.FZ)
 
 
 @dataclass(frozen=True)
@@ -188,6 +208,16 @@ class Case:
     instants: Instants = Instants((0.0, 1.0), False)
     functions: dict[str, Function] | None = None   # name -> Function (DEFI_FONCTION)
 
+    @property
+    def dim(self) -> int:
+        """Space dimension: 3 for ``material.model = "3D"``, else 2."""
+        return 3 if self.material.model == "3D" else 2
+
+    @property
+    def components(self) -> tuple[str, ...]:
+        """The displacement components: DX, DY (and DZ in 3-D)."""
+        return ("DX", "DY", "DZ")[:self.dim]
+
     def reference_at(self, t: float) -> dict[str, TimeFormula]:
         """The reference formulas at instant ``t``."""
         return {name: f.at(t) for name, f in self.reference.items()}
@@ -195,7 +225,7 @@ class Case:
     def check_groups(self, available: Iterable[str]) -> None:
         """Raise :class:`CaseError` for the first load group not in ``available``."""
         available = sorted(set(available))
-        mesh = self.mesh.file.name if self.mesh.file is not None else "rectangle"
+        mesh = self.mesh.name
         loads: tuple[Dirichlet | Traction, ...] = (*self.dirichlet, *self.traction)
         for load in loads:
             for group in load.groups:
@@ -216,6 +246,7 @@ def load_case(path: str | os.PathLike[str]) -> Case:
     path = Path(path)
     raw = _read_toml(path, source)
     walker = _Walker(source, path.parent)
+    walker.dim = _dimension(raw)
     # parameters first: every formula of the case may use them
     walker.params = walker.value(schema.CASE.keys["parameters"], raw.get("parameters", {}),
                                  "parameters", {})
@@ -223,6 +254,16 @@ def load_case(path: str | os.PathLike[str]) -> Case:
     case = _build(values, path, source, walker.params, walker.fail)
     _check_case(case, walker.fail)
     return case
+
+
+def _dimension(raw: dict[str, Any]) -> int:
+    """3 when the raw case is 3-D (``material.model = "3D"``, or a ``mesh.box`` without a
+    model), else 2: the formulas of a 3-D case are of x, y and z."""
+    material, mesh = raw.get("material"), raw.get("mesh")
+    model = material.get("model") if isinstance(material, dict) else None
+    if isinstance(model, str):
+        return 3 if model.casefold() == "3d" else 2
+    return 3 if isinstance(mesh, dict) and "box" in mesh else 2
 
 
 def _read_toml(path: Path, source: str) -> dict[str, Any]:
@@ -264,6 +305,7 @@ class _Walker:
     """Checks raw TOML values against the schema and converts them."""
 
     params: dict[str, float]           # the case's parameters, once checked
+    dim: int = 2                       # space dimension: 3 adds z to the formulas' variables
 
     def __init__(self, source: str, folder: Path) -> None:
         self.source, self.folder, self.params = source, folder, {}
@@ -326,6 +368,8 @@ class _Walker:
     # rules
 
     def _rule(self, rule: schema.Rule, raw: dict[str, Any], out: dict[str, Any], at: str) -> None:
+        if self.dim == 2 and not isinstance(rule, schema.When):      # 2-D: no DZ, FZ in the rules
+            rule = _planar(rule)
         if isinstance(rule, schema.ExactlyOne):
             if sum(name in raw for name in rule.keys) != 1:
                 self.fail(at, f"give exactly one of {_either(rule.keys)}")
@@ -419,6 +463,8 @@ class _Walker:
 
     def _formula(self, key: schema.Key, raw: Any, at: str, siblings: dict[str, Any],
                  variables: tuple[str, ...] = ("x", "y")) -> Formula:
+        if self.dim == 3:
+            variables = ("x", "y", "z") + variables[2:]
         try:
             return _single_line(compile_formula, raw, self.params, source=self.source, key=at,
                                 variables=variables)
@@ -443,6 +489,8 @@ class _Walker:
                    siblings: dict[str, Any]) -> Condition:
         assert key.variables is not None and key.context is not None    # condition keys have both
         variables = key.variables[siblings[key.context]]
+        if self.dim == 3 and key.variables is schema.CONDITION_VARIABLES:
+            variables = schema.CONDITION_VARIABLES_3D[siblings[key.context]]
         return _single_line(compile_condition, raw, self.params, variables=variables,
                             source=self.source, key=at)
 
@@ -458,13 +506,16 @@ class _Walker:
                 self.fail(here, f"expected a group name, got {_show(item)}")
         return tuple(dict.fromkeys(items))
 
-    def _pair(self, raw: Any, at: str, what: str) -> tuple[float, ...]:
-        if not isinstance(raw, list) or len(raw) != 2:
-            self.fail(at, f"expected an array of two numbers {what}, got {_show(raw)}")
+    def _pair(self, raw: Any, at: str, what: str, count: int = 2) -> tuple[float, ...]:
+        if not isinstance(raw, list) or len(raw) != count:
+            self.fail(at, f"expected an array of {('two', 'three')[count - 2]} numbers {what}, "
+                          f"got {_show(raw)}")
         return tuple(float(self._number(item, f"{at}[{i}]")) for i, item in enumerate(raw))
 
     def _point(self, key: schema.Key, raw: Any, at: str,
                siblings: dict[str, Any]) -> tuple[float, ...]:
+        if self.dim == 3:
+            return self._pair(raw, at, "[x, y, z]", 3)
         return self._pair(raw, at, "[x, y]")
 
     def _interval(self, key: schema.Key, raw: Any, at: str,
@@ -503,6 +554,18 @@ class _Walker:
             self.fail(at, f"expected an array of tables ([[{at}]]), got {_show(raw)}")
         table = key.table
         return tuple(self.table(table, item, f"{at}[{i}]") for i, item in enumerate(raw))
+
+
+def _planar(rule: schema.Rule) -> schema.Rule:
+    """``rule`` without the keys of 3-D components (:data:`schema.KEYS_3D`)."""
+    def keep(keys: tuple[str, ...]) -> tuple[str, ...]:
+        return tuple(k for k in keys if k not in schema.KEYS_3D)
+
+    if isinstance(rule, schema.NotBoth):
+        return schema.NotBoth(keep(rule.first), keep(rule.second))
+    if isinstance(rule, (schema.ExactlyOne, schema.AtLeastOne)):
+        return type(rule)(keep(rule.keys))
+    return rule
 
 
 def _single_line(compile_: Callable[..., Any], raw: Any, params: dict[str, float],
@@ -573,8 +636,11 @@ def _build(v: dict[str, Any], path: Path, source: str, params: dict[str, float],
     def bound(formula, mult):
         return TimeFormula(formula, mult, last)
 
-    zero = {name: compile_formula(0.0, params, source=source, key=name, variables=("x", "y", "t"))
-            for name in ("FX", "FY")}
+    dim = _dimension_of(v)
+    space = ("x", "y", "z")[:dim]
+    forces = ("FX", "FY", "FZ")[:dim]
+    zero = {name: compile_formula(0.0, params, source=source, key=name, variables=space + ("t",))
+            for name in forces}
     for i, t in enumerate(v["test"]):
         inst = last
         if t["inst"] is not None:
@@ -588,13 +654,18 @@ def _build(v: dict[str, Any], path: Path, source: str, params: dict[str, float],
             where=t["where"], point=t["point"],
             reference=t["reference"] if t["reference"] is not None else 0.0,
             tolerance=t["tolerance"], criterion=t["criterion"], key=f"test[{i}]", inst=inst))
+    if dim == 2:
+        for at, table in [(f"traction[{i}]", t) for i, t in enumerate(v["traction"])] + \
+                [("body_force", v["body_force"] or {})]:
+            if table.get("FZ") is not None:
+                fail(f"{at}.FZ", "a 3-D component (set material.model = \"3D\" with a 3-D mesh)")
     tractions = []
     for i, t in enumerate(v["traction"]):
         mult = mult_of(t, f"traction[{i}]")
         force = pressure = None
         if t["PRES"] is None:
             force = {name: bound(t[name] if t[name] is not None else zero[name], mult)
-                     for name in ("FX", "FY")}
+                     for name in forces}
         else:
             pressure = bound(t["PRES"], mult)
         tractions.append(Traction(groups=t["group"], force=force, pressure=pressure,
@@ -604,21 +675,22 @@ def _build(v: dict[str, Any], path: Path, source: str, params: dict[str, float],
         mult = mult_of(d, f"dirichlet[{i}]")
         dirichlet.append(Dirichlet(
             groups=d["group"], key=f"dirichlet[{i}]", fonc_mult=d["fonc_mult"],
-            components={c: bound(d[c], mult) for c in ("DX", "DY") if d[c] is not None}))
+            components={c: bound(d[c], mult) for c in ("DX", "DY", "DZ") if d[c] is not None}))
     body = v["body_force"]
     body_force = None
     if body is not None:
         mult = mult_of(body, "body_force")
         body_force = BodyForce(**{name: bound(body[name] if body[name] is not None else zero[name],
-                                              mult) for name in ("FX", "FY")},
+                                              mult) for name in forces},
                                fonc_mult=body["fonc_mult"])
     interface = v["interface"]
     return Case(
         path=path.resolve(), source=source, name=path.stem,
         title=v["title"] if v["title"] is not None else path.stem,
         params=dict(params),
-        mesh=MeshSpec(file=mesh["file"], rectangle=mesh["rectangle"], refine=mesh["refine"]),
-        material=Material(**v["material"]),
+        mesh=MeshSpec(file=mesh["file"], rectangle=mesh["rectangle"], refine=mesh["refine"],
+                      box=mesh["box"]),
+        material=Material(**dict(v["material"], model=_model(v))),
         dirichlet=tuple(dirichlet),
         traction=tuple(tractions),
         body_force=body_force,
@@ -632,6 +704,19 @@ def _build(v: dict[str, Any], path: Path, source: str, params: dict[str, float],
         output=Output(**v["output"]),
         instants=instants,
         functions=functions)
+
+
+def _model(v: dict[str, Any]) -> str:
+    """``material.model`` as given, else 3D for a box and C_PLAN otherwise."""
+    model = v["material"]["model"]
+    if model is not None:
+        return model
+    return "3D" if v["mesh"]["box"] is not None else "C_PLAN"
+
+
+def _dimension_of(v: dict[str, Any]) -> int:
+    """Space dimension of the checked values ``v`` of a case."""
+    return 3 if _model(v) == "3D" else 2
 
 
 def _list_instants(values, limit=8):
@@ -724,8 +809,9 @@ def _check_case(case: Case, fail: Callable[[str, str], NoReturn]) -> None:
         names[test.name] = test.key
     if (case.interface is not None and case.interface.level_set_field is not None
             and case.mesh.file is None):
-        fail("interface.level_set_field", "needs a mesh file with point data (a rectangle "
-                                          "mesh has none: use level_set = \"<formula>\")")
+        fail("interface.level_set_field", f"needs a mesh file with point data (a {case.mesh.name} "
+                                          f"mesh has none: use level_set = \"<formula>\")")
+    _check_dimension(case, fail)
     for test in case.tests:
         if test.kind == "interface" and case.interface is None:
             fail(f"{test.key}.field", f"{test.field} is an interface field but the case has "
@@ -736,6 +822,32 @@ def _check_case(case: Case, fail: Callable[[str, str], NoReturn]) -> None:
         if test.type != "MAX_ERROR" and test.criterion == "RELATIF" and test.reference == 0:
             fail(f"{test.key}.criterion", "RELATIF needs a non-zero reference "
                                           "(use criterion = \"ABSOLU\")")
+
+
+def _check_dimension(case: Case, fail: Callable[[str, str], NoReturn]) -> None:
+    """The keys of a case agree with its dimension (``material.model``)."""
+    three = case.dim == 3
+    if case.mesh.box is not None and not three:
+        fail("material.model", f"mesh.box is a 3-D mesh: use model = \"3D\" (or leave it out), "
+                               f"got {_show(case.material.model)}")
+    if case.mesh.rectangle is not None and three:
+        fail("material.model", "model = \"3D\" needs a 3-D mesh (mesh.box, or a mesh file of "
+                               "HEXA20 or TETRA10 cells); mesh.rectangle is 2-D")
+    if three and case.mesh.refine:
+        fail("mesh.refine", "uniform refinement is for 2-D meshes only (for now): generate or "
+                            "mesh the finer box instead")
+    if three:
+        return
+    hint = "a 3-D component (set material.model = \"3D\" with a 3-D mesh)"
+    for d in case.dirichlet:
+        if "DZ" in d.components:
+            fail(f"{d.key}.DZ", hint)
+    for test in case.tests:
+        if test.field in schema.FIELDS_3D_ONLY:
+            fail(f"{test.key}.field", f"{test.field} is {hint[2:]}")
+    for name in case.reference:
+        if name in schema.FIELDS_3D_ONLY:
+            fail(f"reference.{name}", hint)
 
 
 # --- messages ------------------------------------------------------------------------------

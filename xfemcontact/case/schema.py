@@ -24,8 +24,8 @@ Value types (``Key.type``):
   ``booleans``, TOML ``true``/``false`` are accepted as ``"OUI"``/``"NON"``;
   ``refused`` maps values that are known but not supported to the message.
 * ``choices``: an array of ``choice`` values, stored as a tuple (repeats dropped).
-* ``formula``: a number or a formula string of ``x``, ``y`` and the
-  parameters, compiled at load time into a :class:`~xfemcontact.case.formula.Formula`.
+* ``formula``: a number or a formula string of ``x``, ``y`` (``z`` in a 3-D case) and
+  the parameters, compiled at load time into a :class:`~xfemcontact.case.formula.Formula`.
 * ``tformula``: the same with the instant ``t`` too (loads and references), stored as a
   :class:`~xfemcontact.case.functions.TimeFormula` (bound to the last instant, with
   the ``fonc_mult`` function of its table when it has one).
@@ -34,7 +34,7 @@ Value types (``Key.type``):
   :class:`~xfemcontact.case.formula.Condition`; its variables are
   ``variables[siblings[context]]`` (they depend on a key validated before it).
 * ``names``: a non-empty string or a non-empty array of them, stored as a tuple.
-* ``point``: an array of two numbers, stored as a tuple of floats.
+* ``point``: an array of two numbers (three in a 3-D case), stored as a tuple of floats.
 * ``interval``: an array of two increasing numbers, stored as a tuple of floats.
 * ``file``: a path relative to the case file's folder, stored resolved; the
   file must exist.
@@ -55,19 +55,32 @@ from xfemcontact.contact import laws
 NODE_FIELDS = ("DX", "DY")
 CELL_FIELDS = ("SIXX", "SIYY", "SIXY")
 INTERFACE_FIELDS = ("LAGS_C", "LAGS_F1", "gap", "slip")
+#: the fields of 3-D cases (code_aster's Voigt order of the stresses)
+NODE_FIELDS_3D = ("DX", "DY", "DZ")
+CELL_FIELDS_3D = ("SIXX", "SIYY", "SIZZ", "SIXY", "SIXZ", "SIYZ")
+#: the keys of 3-D components (imposed DZ, forces FZ): left out of the rules of 2-D cases
+KEYS_3D = ("DZ", "FZ")
+#: fields of 3-D cases only
+FIELDS_3D_ONLY = tuple(f for f in NODE_FIELDS_3D + CELL_FIELDS_3D if f not in NODE_FIELDS + CELL_FIELDS)
 #: field name -> where it lives: "node", "cell" or "interface"
-FIELD_KIND = {**dict.fromkeys(NODE_FIELDS, "node"), **dict.fromkeys(CELL_FIELDS, "cell"),
+FIELD_KIND = {**dict.fromkeys(NODE_FIELDS_3D, "node"), **dict.fromkeys(CELL_FIELDS_3D, "cell"),
               **dict.fromkeys(INTERFACE_FIELDS, "interface")}
 FIELDS = tuple(FIELD_KIND)
-#: field name -> the variables of a test's ``where`` condition on that field
+#: field name -> the variables of a test's ``where`` condition on that field (2-D cases)
 CONDITION_VARIABLES = {
     name: ("x", "y") + {"node": NODE_FIELDS, "cell": CELL_FIELDS,
                         "interface": INTERFACE_FIELDS}[kind]
     for name, kind in FIELD_KIND.items()}
+#: the same in 3-D cases
+CONDITION_VARIABLES_3D = {
+    name: ("x", "y", "z") + {"node": NODE_FIELDS_3D, "cell": CELL_FIELDS_3D,
+                             "interface": INTERFACE_FIELDS}[kind]
+    for name, kind in FIELD_KIND.items()}
 
 MESH_CELLS = ("QUAD8", "TRIA6")
+BOX_CELLS = ("HEXA20", "TETRA10")
 DIAGONALS = ("right", "left", "alternate")
-MODELS = ("C_PLAN", "D_PLAN")
+MODELS = ("C_PLAN", "D_PLAN", "3D")
 LAWS = laws.NAMES
 TEST_TYPES = ("MIN", "MAX", "VALUE", "SOMM_ABS", "MAX_ERROR")
 CRITERIA = ("ABSOLU", "RELATIF")
@@ -77,6 +90,7 @@ MAX_REFINE = 6
 MAX_INSTANTS = 100000
 MAX_SUBD = 20
 MAX_CELLS_PER_SIDE = 10000
+MAX_CELLS_PER_SIDE_3D = 1000
 #: most iterations of any loop (ITER_GLOB_MAXI, ITER_CONT_MAXI, ITER_FROT_MAXI and the
 #: options overriding them): far beyond any useful count, far below PETSc's integers
 MAX_ITERATIONS = 1000000
@@ -84,6 +98,7 @@ MAX_ITERATIONS = 1000000
 #: names a parameter may not take, with what they already are
 RESERVED_NAMES = {
     **dict.fromkeys(("x", "y"), "a formula variable"),
+    "z": "a formula variable (3-D cases)",
     "t": "a formula variable (the instant)",
     **dict.fromkeys(FIELDS, "a field name usable in test conditions"),
     **dict.fromkeys(CONSTANTS, "a constant"),
@@ -173,7 +188,7 @@ def flag(doc: str, default: object) -> Key:
 
 
 def formula(doc: str, **kwargs: Any) -> Key:
-    """A formula key (a number or a formula of x, y and the parameters)."""
+    """A formula key (a number or a formula of x, y (z in 3-D) and the parameters)."""
     return Key("formula", doc, **kwargs)
 
 
@@ -197,41 +212,58 @@ RECTANGLE = Table({
                     choices=DIAGONALS),
 }, doc="structured mesh of a rectangle")
 
+BOX = Table({
+    "nx": Key("int", "number of cells along x", required=True, ge=1, le=MAX_CELLS_PER_SIDE_3D),
+    "ny": Key("int", "number of cells along y", required=True, ge=1, le=MAX_CELLS_PER_SIDE_3D),
+    "nz": Key("int", "number of cells along z", required=True, ge=1, le=MAX_CELLS_PER_SIDE_3D),
+    "x": Key("interval", "[xmin, xmax] in m", default=[0.0, 1.0]),
+    "y": Key("interval", "[ymin, ymax] in m", default=[0.0, 1.0]),
+    "z": Key("interval", "[zmin, zmax] in m", default=[0.0, 1.0]),
+    "cell": Key("choice", "cell type (TETRA10: 6 a hexahedron)", default="HEXA20", choices=BOX_CELLS),
+}, doc="structured mesh of a box (3-D)")
+
 MESH = Table({
     "file": Key("file", "mesh file (MED, Gmsh, XDMF, VTU), relative to the case file's folder"),
     "rectangle": Key("table", "structured rectangle mesh: nx, ny, x, y, cell, diagonal",
                      table=RECTANGLE),
-    "refine": Key("int", "uniform refinements (MACR_ADAP_MAIL RAFFINEMENT_UNIFORME)",
+    "box": Key("table", "structured box mesh (3-D): nx, ny, nz, x, y, z, cell", table=BOX),
+    "refine": Key("int", "uniform refinements (MACR_ADAP_MAIL RAFFINEMENT_UNIFORME; 2-D meshes)",
                   default=0, ge=0, le=MAX_REFINE),
-}, doc="the mesh: file or rectangle", rules=(ExactlyOne(("file", "rectangle")),))
+}, doc="the mesh: file, rectangle or box", rules=(ExactlyOne(("file", "rectangle", "box")),))
 
 MATERIAL = Table({
     "E": Key("float", "Young's modulus in Pa", required=True, gt=0),
     "nu": Key("float", "Poisson's ratio", required=True, gt=-1, lt=0.5),
-    "model": Key("choice", "plane stress or plane strain", default="C_PLAN", choices=MODELS),
+    "model": Key("choice", "modelisation: plane stress, plane strain or 3D (default: C_PLAN, "
+                 "3D with mesh.box)", choices=MODELS),
 }, doc="E, nu, model: the elastic material")
 
 DIRICHLET = Table({
-    "group": Key("names", "edge or node group(s)", required=True),
-    "DX": tformula("imposed x displacement in m, number or formula of x, y, t"),
-    "DY": tformula("imposed y displacement in m, number or formula of x, y, t"),
+    "group": Key("names", "face (3-D), edge or node group(s)", required=True),
+    "DX": tformula("imposed x displacement in m, number or formula of x, y, (z,) t"),
+    "DY": tformula("imposed y displacement in m, number or formula of x, y, (z,) t"),
+    "DZ": tformula("imposed z displacement in m (3-D cases)"),
     "fonc_mult": fonc_mult(),
-}, doc="DDL_IMPO: imposed displacements", rules=(AtLeastOne(("DX", "DY")),))
+}, doc="DDL_IMPO: imposed displacements", rules=(AtLeastOne(("DX", "DY", "DZ")),))
 
 TRACTION = Table({
-    "group": Key("names", "edge group(s)", required=True),
-    "FX": tformula("x force per unit length in N/m (FORCE_CONTOUR)"),
-    "FY": tformula("y force per unit length in N/m (FORCE_CONTOUR)"),
+    "group": Key("names", "edge group(s) (2-D) or face group(s) (3-D)", required=True),
+    "FX": tformula("x force per unit length in N/m (FORCE_CONTOUR), per unit area in Pa in "
+                   "3-D (FORCE_FACE)"),
+    "FY": tformula("y force per unit length in N/m (FORCE_CONTOUR), per unit area in Pa in "
+                   "3-D (FORCE_FACE)"),
+    "FZ": tformula("z force per unit area in Pa (FORCE_FACE, 3-D cases)"),
     "PRES": tformula("pressure in Pa, > 0 pushes into the body (PRES_REP)"),
     "fonc_mult": fonc_mult(),
-}, doc="FORCE_CONTOUR or PRES_REP: loads on edges",
-    rules=(AtLeastOne(("FX", "FY", "PRES")), NotBoth(("FX", "FY"), ("PRES",))))
+}, doc="FORCE_CONTOUR, FORCE_FACE or PRES_REP: loads on edges (2-D) or faces (3-D)",
+    rules=(AtLeastOne(("FX", "FY", "FZ", "PRES")), NotBoth(("FX", "FY", "FZ"), ("PRES",))))
 
 BODY_FORCE = Table({
     "FX": tformula("x force per unit volume in N/m^3"),
     "FY": tformula("y force per unit volume in N/m^3"),
+    "FZ": tformula("z force per unit volume in N/m^3 (3-D cases)"),
     "fonc_mult": fonc_mult(),
-}, doc="FORCE_INTERNE: body force", rules=(AtLeastOne(("FX", "FY")),))
+}, doc="FORCE_INTERNE: body force", rules=(AtLeastOne(("FX", "FY", "FZ")),))
 
 INTERFACE = Table({
     "type": Key("choice", "type of discontinuity", default="INTERFACE", choices=("INTERFACE",),
@@ -290,8 +322,8 @@ NEWTON = Table({
 }, doc="STAT_NON_LINE CONVERGENCE")
 
 REFERENCE = Table({
-    name: tformula(f"analytical {name}, formula of x, y, t") for name in FIELDS
-}, doc="analytical solution: field name -> formula of x, y, t")
+    name: tformula(f"analytical {name}, formula of x, y, (z,) t") for name in FIELDS
+}, doc="analytical solution: field name -> formula of x, y, (z,) t")
 
 _NOT_MAX_ERROR = tuple(t for t in TEST_TYPES if t != "MAX_ERROR")
 TEST = Table({
@@ -300,7 +332,7 @@ TEST = Table({
     "type": Key("choice", "what is tested", required=True, choices=TEST_TYPES),
     "where": Key("condition", "condition selecting the points tested", context="field",
                  variables=CONDITION_VARIABLES),
-    "point": Key("point", "[x, y] of the point tested, for type VALUE"),
+    "point": Key("point", "[x, y] ([x, y, z] in 3-D) of the point tested, for type VALUE"),
     "reference": Key("float", "reference value"),
     "tolerance": Key("float", "tolerance", required=True, gt=0),
     "criterion": Key("choice", "absolute or relative tolerance", default="RELATIF",

@@ -1,7 +1,7 @@
 """Which components are imposed, and their values.
 
-Imposed displacements (code_aster DDL_IMPO) fix DX/DY at the nodes of their
-groups.  At an enriched node the displacement must hold on both sides of the
+Imposed displacements (code_aster DDL_IMPO) fix DX/DY (DZ in 3-D) at the nodes of
+their groups.  At an enriched node the displacement must hold on both sides of the
 interface wherever the interface reaches the constrained boundary, so its
 Heaviside dofs of the same components are fixed to zero when an edge of the
 group through the node touches the interface (or when the group is a group of
@@ -37,26 +37,27 @@ def _touching_edges(mesh: LocalMesh, phi: FloatArray, edges: IntArray) -> BoolAr
 
 def fixed_components(mesh: LocalMesh, case: Case, geo: Geometry | None, law: InterfaceLaw | None,
                      values_fn: Callable[[IntArray, TimeFormula], FloatArray]) -> tuple[BoolArray, FloatArray]:
-    """Imposed components ``(n, 4)`` (DX, DY, H1X, H1Y) and DX/DY values ``(n, 2)``.
+    """Imposed components ``(n, 2 d)`` (DX, DY, [DZ], H1X, H1Y, [H1Z]) and displacement
+    values ``(n, d)``, d the mesh's dimension.
 
     ``law``: the interface law (None without interface); ``values_fn(nodes,
     formula)`` evaluates a formula at nodes.
     """
-    n = len(mesh.x)
-    fixed = np.zeros((n, 4), dtype=bool)
-    values = np.zeros((n, 2))
+    n, d = len(mesh.x), mesh.dim
+    fixed = np.zeros((n, 2 * d), dtype=bool)
+    values = np.zeros((n, d))
     for bc in case.dirichlet:
         nodes = np.unique(np.concatenate([mesh.group_nodes(g) for g in bc.groups]))
         hnodes = _heaviside_nodes(mesh, geo, bc.groups) if geo is not None else np.zeros(0, int)
-        for c, comp in enumerate(("DX", "DY")):
+        for c, comp in enumerate(("DX", "DY", "DZ")[:d]):
             if comp in bc.components:
                 fixed[nodes, c] = True
                 values[nodes, c] = values_fn(nodes, bc.components[comp])
-                fixed[hnodes, 2 + c] = True
+                fixed[hnodes, d + c] = True
     if geo is not None:
-        fixed[:, 2:] &= geo.enriched[:, None]
+        fixed[:, d:] &= geo.enriched[:, None]
         if law is not None and law.zero_jump:
-            fixed[:, 2:] |= geo.enriched[:, None]
+            fixed[:, d:] |= geo.enriched[:, None]
     return fixed, values
 
 

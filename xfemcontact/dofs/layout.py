@@ -2,18 +2,19 @@
 
 Four fields, each on the points (vertices and edges) that carry the node:
 
-==========  ===============  =======================================================
-field       components       carried by
-==========  ===============  =======================================================
-0 u         DX, DY           every node
-1 h         H1X, H1Y         Heaviside-enriched nodes
-2 LAGS_C    contact pressure representative vertices of the multiplier space
-3 LAGS_F1   friction         the same vertices
-==========  ===============  =======================================================
+==========  ===================  =======================================================
+field       components           carried by
+==========  ===================  =======================================================
+0 u         DX, DY (DZ in 3-D)   every node
+1 h         H1X, H1Y (H1Z)       Heaviside-enriched nodes
+2 LAGS_C    contact pressure     representative vertices of the multiplier space
+3 LAGS_F1   friction             the same vertices
+==========  ===================  =======================================================
 
 Within a point, dofs are ordered field by field, so node ``i``'s local dofs are
-``off[i] + (DX, DY, [H1X, H1Y], [LAGS_C, LAGS_F1])``; the PetscSection itself has one
-field (the kinds are told apart by these index arrays only).
+``off[i] + (DX, DY, [DZ], [H1X, H1Y, [H1Z]], [LAGS_C, LAGS_F1])``; the PetscSection
+itself has one field (the kinds are told apart by these index arrays only).  The
+dimension ``d`` (2 or 3) is the mesh's.
 Imposed components (Dirichlet conditions, Heaviside dofs forced to zero) are
 section constraints: they are in the local vectors and out of the global system,
 so every KSP/PC sees the reduced, symmetric operator.
@@ -40,6 +41,8 @@ if TYPE_CHECKING:
 
 FIELDS = ("u", "h", "LAGS_C", "LAGS_F1")
 COMPONENTS = {"u": ("DX", "DY"), "h": ("H1X", "H1Y"), "LAGS_C": ("LAGS_C",), "LAGS_F1": ("LAGS_F1",)}
+#: the displacement components of 3-D meshes
+COMPONENTS_3D = {"u": ("DX", "DY", "DZ"), "h": ("H1X", "H1Y", "H1Z")}
 
 
 class DofLayout:
@@ -53,8 +56,9 @@ class DofLayout:
     multiplier : (n,) bool
         Vertices carrying LAGS_C and LAGS_F1 (the representatives of the
         multiplier space).
-    fixed : (n, 4) bool
-        Constrained components (DX, DY, H1X, H1Y); H components only where enriched.
+    fixed : (n, 2 d) bool
+        Constrained components (DX, DY, [DZ], H1X, H1Y, [H1Z]); H components only
+        where enriched.
 
     All three must agree on points shared by several processes.
     """
@@ -63,9 +67,13 @@ class DofLayout:
                  fixed: ArrayLike) -> None:
         n = len(mesh.x)
         self.mesh = mesh
+        #: space dimension: displacement components per node
+        self.dim: int = mesh.dim
+        d = self.dim
         self.enriched: BoolArray = np.asarray(enriched, bool)
         self.multiplier: BoolArray = np.asarray(multiplier, bool)
-        self.fixed: BoolArray = np.asarray(fixed, bool) & np.c_[np.ones((n, 2), bool), self.enriched, self.enriched]
+        self.fixed: BoolArray = np.asarray(fixed, bool) & np.c_[np.ones((n, d), bool),
+                                                                np.repeat(self.enriched[:, None], d, axis=1)]
         self._counts: dict[str, int] | None = None    # free dofs by kind, summed over processes on first use
         self._scatter: tuple[PETSc.Scatter, PETSc.Vec] | None = None     # see scatter
         section = self._build_section()
@@ -82,8 +90,8 @@ class DofLayout:
 
     # -- section ------------------------------------------------------------
     def _dofs_per_field(self) -> IntArray:
-        n = len(self.enriched)
-        return np.c_[np.full(n, 2), 2 * self.enriched, self.multiplier, self.multiplier].astype(np.int64)
+        n, d = len(self.enriched), self.dim
+        return np.c_[np.full(n, d), d * self.enriched, self.multiplier, self.multiplier].astype(np.int64)
 
     def _build_section(self) -> PETSc.Section:
         """A PetscSection with one field holding every dof of a node (a field per kind
@@ -127,16 +135,17 @@ class DofLayout:
         # index arrays in PETSc's integer type (half the memory of int64 with 32-bit PETSc)
         it = PETSc.IntType
         e = self.enriched
+        d = self.dim
         off = off.astype(it)
-        two = np.arange(2, dtype=it)
-        #: ``(n, 2)`` local DX, DY dof of every node
-        self.u_local: IntArray = off[:, None] + two
-        #: ``(n, 2)`` local H1X, H1Y dof of every node (-1 where not enriched)
-        self.h_local: IntArray = np.where(e[:, None], off[:, None] + 2 + two, it(-1))
+        comps = np.arange(d, dtype=it)
+        #: ``(n, d)`` local DX, DY, [DZ] dof of every node
+        self.u_local: IntArray = off[:, None] + comps
+        #: ``(n, d)`` local H1X, H1Y, [H1Z] dof of every node (-1 where not enriched)
+        self.h_local: IntArray = np.where(e[:, None], off[:, None] + d + comps, it(-1))
         self._derived: dict[str, IntArray] = {}     # the arrays below, computed on first use (see release_setup)
         constrained = np.zeros(self.local_size, dtype=bool)
-        constrained[self.u_local[self.fixed[:, :2]]] = True
-        hfix = self.h_local[self.fixed[:, 2:]]
+        constrained[self.u_local[self.fixed[:, :d]]] = True
+        hfix = self.h_local[self.fixed[:, d:]]
         constrained[hfix[hfix >= 0]] = True
         #: local indices of the free (unconstrained) dofs
         self.free_local: IntArray = np.nonzero(~constrained)[0].astype(it)
@@ -152,8 +161,8 @@ class DofLayout:
     def lag_local(self) -> IntArray:
         """``(n, 2)`` local LAGS_C, LAGS_F1 dof of every node (-1 where absent)."""
         if "lag_local" not in self._derived:
-            it = PETSc.IntType
-            lag0 = self.u_local[:, 0] + 2 + 2 * self.enriched.astype(it)
+            it, d = PETSc.IntType, self.dim
+            lag0 = self.u_local[:, 0] + d + d * self.enriched.astype(it)
             self._derived["lag_local"] = np.where(self.multiplier[:, None], lag0[:, None] + np.arange(2, dtype=it),
                                                   it(-1))
         return self._derived["lag_local"]
@@ -171,12 +180,12 @@ class DofLayout:
 
     @property
     def u_global(self) -> IntArray:
-        """``(n, 2)`` global DX, DY dof of every node (-1: constrained)."""
+        """``(n, d)`` global DX, DY, [DZ] dof of every node (-1: constrained)."""
         return self._global("u_global", self.u_local)
 
     @property
     def h_global(self) -> IntArray:
-        """``(n, 2)`` global H1X, H1Y dof (-1: absent or constrained)."""
+        """``(n, d)`` global H1X, H1Y, [H1Z] dof (-1: absent or constrained)."""
         return self._global("h_global", self.h_local)
 
     @property
@@ -237,10 +246,11 @@ class DofLayout:
     def _count_free(self) -> dict[str, int]:
         owned = self.mesh.node_owned
         free = ~self.fixed
+        d = self.dim
         mpi = self.mesh.comm.tompi4py()
         local = {
-            "displacement": int(free[owned, :2].sum()),
-            "heaviside": int((free[owned, 2:] & self.enriched[owned, None]).sum()),
+            "displacement": int(free[owned, :d].sum()),
+            "heaviside": int((free[owned, d:] & self.enriched[owned, None]).sum()),
             "LAGS_C": int(self.multiplier[owned].sum()),
             "LAGS_F1": int(self.multiplier[owned].sum()),
         }

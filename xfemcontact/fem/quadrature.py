@@ -1,8 +1,9 @@
-"""Quadrature rules on the reference segment, triangle and square.
+"""Quadrature rules on the reference segment, triangle, square, tetrahedron and cube.
 
 Each function returns ``(points, weights)``: points ``(nq, dim)`` in reference
 coordinates, weights ``(nq,)`` summing to the reference measure (2 for the
-segment [-1, 1], 1/2 for the triangle (0,0)-(1,0)-(0,1), 4 for [-1, 1]^2).
+segment [-1, 1], 1/2 for the triangle (0,0)-(1,0)-(0,1), 4 for [-1, 1]^2, 1/6
+for the tetrahedron (0,0,0)-(1,0,0)-(0,1,0)-(0,0,1), 8 for [-1, 1]^3).
 """
 from __future__ import annotations
 
@@ -34,6 +35,15 @@ def gauss_square(n: int) -> Rule:
     x, w = np.polynomial.legendre.leggauss(n)
     X, Y = np.meshgrid(x, x, indexing="ij")
     return np.c_[X.ravel(), Y.ravel()], np.outer(w, w).ravel()
+
+
+@lru_cache(maxsize=None)
+def gauss_cube(n: int) -> Rule:
+    """n x n x n tensor Gauss rule on [-1, 1]^3 (exact to degree 2n-1 in each variable)."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    X, Y, Z = np.meshgrid(x, x, x, indexing="ij")
+    W = w[:, None, None] * w[None, :, None] * w[None, None, :]
+    return np.c_[X.ravel(), Y.ravel(), Z.ravel()], W.ravel()
 
 
 def _orbit3(a: float, w: float) -> _Orbit:
@@ -90,3 +100,49 @@ def _stroud_triangle(degree: int) -> Rule:
     x = S.ravel()
     y = ((1.0 - S) * T).ravel()
     return np.c_[x, y], W.ravel()
+
+
+#: the symmetric 4-point rule of degree 2 on the tetrahedron: barycentric a, b, b, b
+_TET4 = (0.5854101966249685, 0.1381966011250105)
+
+
+@lru_cache(maxsize=None)
+def gauss_tetrahedron(degree: int) -> Rule:
+    """Rule exact to ``degree`` on the reference tetrahedron, positive weights.
+
+    Degrees 1 and 2 use the centroid and the symmetric 4-point rule; higher
+    degrees a collapsed (Stroud conical product) Gauss-Jacobi rule with
+    ``(degree // 2 + 1)^3`` points, exact but not symmetric.
+    """
+    if degree <= 1:
+        return np.full((1, 3), 0.25), np.array([1.0 / 6.0])
+    if degree == 2:
+        a, b = _TET4
+        pts = np.full((4, 3), b)
+        pts[np.arange(1, 4), np.arange(3)] = a          # vertex 0 at the origin: point 0 all b
+        return pts, np.full(4, 1.0 / 24.0)
+    return _stroud_tetrahedron(degree)
+
+
+def _collapsed(n: int, alpha: float) -> Rule:
+    """Gauss-Jacobi points in [0, 1] with weights for the weight ``(1 - s)^alpha``."""
+    from scipy.special import roots_jacobi
+
+    if alpha == 0:
+        t, w = np.polynomial.legendre.leggauss(n)
+    else:
+        t, w = roots_jacobi(n, alpha, 0.0)
+    return 0.5 * (t + 1.0), w / 2.0 ** (alpha + 1)
+
+
+def _stroud_tetrahedron(degree: int) -> Rule:
+    n = degree // 2 + 1
+    r, wr = _collapsed(n, 2.0)        # x = r: weight (1 - r)^2 from the collapse
+    s, ws = _collapsed(n, 1.0)        # y = (1 - r) s: weight (1 - s)
+    t, wt = _collapsed(n, 0.0)        # z = (1 - r)(1 - s) t
+    R, S, T = np.meshgrid(r, s, t, indexing="ij")
+    W = wr[:, None, None] * ws[None, :, None] * wt[None, None, :]
+    x = R
+    y = (1.0 - R) * S
+    z = (1.0 - R) * (1.0 - S) * T
+    return np.c_[x.ravel(), y.ravel(), z.ravel()], W.ravel()

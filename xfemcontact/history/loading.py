@@ -2,7 +2,7 @@
 
 The model assembles its bulk system once, with the loads of the last instant.
 At another instant ``t`` the imposed displacements, tractions and body forces
-take their values at ``t`` (formulas of x, y, t times their FONC_MULT function,
+take their values at ``t`` (formulas of x, y, (z,) t times their FONC_MULT function,
 see :class:`~xfemcontact.case.functions.TimeFormula`), and
 
     f0(t) = K_fc u_c(t) - F_ext(t)
@@ -23,6 +23,7 @@ import numpy as np
 
 from xfemcontact.assembly import bulk, system
 from xfemcontact.fem import elasticity
+from xfemcontact.fem.coordinates import coordinates
 from xfemcontact.xfem import geometry as xgeo
 
 if TYPE_CHECKING:
@@ -49,7 +50,8 @@ def case_at(case: Case, t: float) -> Case:
                      for tr in case.traction)
     body = case.body_force
     if body is not None:
-        body = dataclasses.replace(body, FX=body.FX.at(t), FY=body.FY.at(t))
+        body = dataclasses.replace(body, FX=body.FX.at(t), FY=body.FY.at(t),
+                                   FZ=None if body.FZ is None else body.FZ.at(t))
     return dataclasses.replace(case, dirichlet=dirichlet, traction=traction, body_force=body)
 
 
@@ -58,7 +60,7 @@ def _uses_time(spec: Any) -> bool:
     formulas: list[TimeFormula] = [spec.pressure] if getattr(spec, "pressure", None) is not None else []
     formulas += list((getattr(spec, "force", None) or {}).values())
     if hasattr(spec, "FX"):
-        formulas += [spec.FX, spec.FY]
+        formulas += list(spec.components)
     return any(f.uses_time for f in formulas)
 
 
@@ -84,16 +86,18 @@ class Loading:
 
         #: per [[dirichlet]]: its nodes (the values of a later one override an earlier one's)
         self._dirichlet = [(nodes_of(d.groups), d) for d in self.case.dirichlet]
-        #: per [[traction]]: the edges (nodes (k, 3)) this process integrates, per group
-        self._edges = [[mesh.group_edges(g)[0] for g in tr.groups] for tr in self.case.traction]
+        #: per [[traction]]: the edges (nodes (k, 3)) this process integrates, per group (the
+        #: faces (nodes (k, 8|6)) in 3-D)
+        sides = mesh.group_faces if mesh.dim == 3 else mesh.group_edges
+        self._edges = [[sides(g)[0] for g in tr.groups] for tr in self.case.traction]
         #: per load of the load path: its label and the owned nodes of its groups
         self._path_nodes = [nodes_of(tr.groups) for tr in self.case.traction]
 
     @staticmethod
     def _lift_matrices(model: Model) -> list[tuple[bulk.Batch, FloatArray]]:
-        """Element matrices and local dofs of the cells with an imposed DX or DY."""
+        """Element matrices and local dofs of the cells with an imposed displacement component."""
         mesh, geo, layout = model.mesh, model.geo, model.layout
-        imposed = layout.fixed[:, :2].any(axis=1)
+        imposed = layout.fixed[:, :layout.dim].any(axis=1)
         touched = imposed[mesh.cell_nodes].any(axis=1)
         plain = geo.plain_cells(mesh) if geo is not None else np.arange(len(mesh.cells))
         blocks: list[tuple[bulk.Batch, FloatArray]] = []
@@ -118,6 +122,9 @@ class Loading:
         mesh, geo, layout = self._mesh, self._geo, self._layout
         for nodes in self._edges[index]:
             if len(nodes) == 0:
+                continue
+            if mesh.dim == 3:
+                system.add_face_tractions(mesh, layout, nodes, spec, f)
                 continue
             fe = system._edge_forces_by_side(mesh, geo, nodes, mesh.x[nodes], spec)      # (k, 2, 6)
             np.add.at(f, system._edge_dofs(layout, nodes), fe.reshape(len(nodes), fe.shape[1] * fe.shape[2]))
@@ -144,13 +151,13 @@ class Loading:
         return f
 
     def _imposed(self, t: float) -> FloatArray:
-        """``(n, 2)`` DX, DY imposed at instant ``t`` (as :func:`constraints.fixed_components`)."""
+        """``(n, d)`` DX, DY, [DZ] imposed at instant ``t`` (as :func:`constraints.fixed_components`)."""
         x = self._mesh.x
-        values = np.zeros((len(x), 2))
+        values = np.zeros(x.shape)
         for nodes, d in self._dirichlet:
-            for c, comp in enumerate(("DX", "DY")):
+            for c, comp in enumerate(("DX", "DY", "DZ")[:x.shape[1]]):
                 if comp in d.components:
-                    values[nodes, c] = d.components[comp].at(t)(x=x[nodes, 0], y=x[nodes, 1])
+                    values[nodes, c] = d.components[comp].at(t)(**coordinates(x[nodes]))
         return values
 
     def apply(self, t: float) -> None:
@@ -180,7 +187,7 @@ class Loading:
         def mean(label: str, nodes: IntArray, f: TimeFormula) -> None:
             own = nodes[mesh.node_owned[nodes]]
             try:          # tractions are evaluated at quadrature points, not at nodes
-                local = (float(np.sum(f.at(t)(x=x[own, 0], y=x[own, 1]))), len(own), 1)
+                local = (float(np.sum(f.at(t)(**coordinates(x[own])))), len(own), 1)
             except XfcError:
                 local = (0.0, 0, 0)
             parts = mpi.allgather(local)
@@ -199,8 +206,8 @@ class Loading:
         body = self.case.body_force
         if body is not None:
             nodes = np.arange(len(x))
-            for comp in ("FX", "FY"):
-                mean(f"body_force.{comp}", nodes, getattr(body, comp))
+            for comp, f in zip(("FX", "FY", "FZ"), body.components):
+                mean(f"body_force.{comp}", nodes, f)
         return out
 
 
@@ -233,7 +240,7 @@ def _at_instant(f: TimeFormula, x: FloatArray, t: float) -> None:
     from xfemcontact.errors import FormulaError
 
     try:
-        f(x=x[:, 0], y=x[:, 1])
+        f(**coordinates(x))
     except FormulaError as exc:
         text = str(exc)
         raise FormulaError(text if "t=" in text else f"{text} (instant t = {t:g})") from None

@@ -2,7 +2,7 @@
 
 Debian's PETSc has no ParMETIS partitioner and Debian's MUMPS no METIS ordering;
 METIS itself (through pymetis) partitions the cell dual graph (cells sharing an
-edge) on rank 0, with weights so that cut cells, which carry sub-cell
+edge in 2-D, a face in 3-D) on rank 0, with weights so that cut cells, which carry sub-cell
 quadrature and interface terms, count for their extra work.  Any other PETSc
 partitioner stays available with ``-petscpartitioner_type ptscotch|simple``.
 """
@@ -26,20 +26,21 @@ if TYPE_CHECKING:
 CUT_CELL_WEIGHT = 8
 
 
-def dual_graph(cell_vertices: IntArray) -> tuple[IntArray, IntArray]:
-    """CSR dual graph (``xadj``, ``adjncy``) of cells sharing an edge.
+def dual_graph(cell_vertices: IntArray, sides: IntArray | None = None) -> tuple[IntArray, IntArray]:
+    """CSR dual graph (``xadj``, ``adjncy``) of cells sharing a side.
 
-    ``cell_vertices (ne, nv)``: vertex indices of each cell, counter-clockwise.
+    ``cell_vertices (ne, nv)``: vertex indices of each cell; ``sides (ns, m)``: the
+    local vertices of each side of a cell (3-D: its faces); default: the edges of a
+    polygon whose vertices are counter-clockwise.
     """
     ne, nv = cell_vertices.shape
-    a = cell_vertices
-    b = np.roll(cell_vertices, -1, axis=1)
-    lo, hi = np.minimum(a, b).ravel(), np.maximum(a, b).ravel()
-    key = lo.astype(np.int64) * (int(cell_vertices.max()) + 1) + hi
-    cell = np.repeat(np.arange(ne), nv)
-    order = np.argsort(key, kind="stable")
-    k, c = key[order], cell[order]
-    twin = np.nonzero(k[1:] == k[:-1])[0]
+    if sides is None:
+        sides = np.c_[np.arange(nv), np.roll(np.arange(nv), -1)]
+    rows = np.sort(cell_vertices[:, sides].reshape(-1, sides.shape[1]), axis=1)     # (ne ns, m)
+    cell = np.repeat(np.arange(ne), len(sides))
+    order = np.lexsort(rows.T[::-1])                      # stable, by the sorted vertices
+    r, c = rows[order], cell[order]
+    twin = np.nonzero((r[1:] == r[:-1]).all(axis=1))[0]
     i, j = c[twin], c[twin + 1]
     src = np.r_[i, j]
     dst = np.r_[j, i]
@@ -48,13 +49,14 @@ def dual_graph(cell_vertices: IntArray) -> tuple[IntArray, IntArray]:
     return xadj.astype(np.int64), dst[order].astype(np.int64)
 
 
-def metis_parts(cell_vertices: IntArray, nparts: int, weights: ArrayLike | None = None) -> IntArray:
-    """Part of every cell (``(ne,)`` ints in [0, nparts))."""
+def metis_parts(cell_vertices: IntArray, nparts: int, weights: ArrayLike | None = None,
+                sides: IntArray | None = None) -> IntArray:
+    """Part of every cell (``(ne,)`` ints in [0, nparts)); ``sides``: see :func:`dual_graph`."""
     if nparts == 1:
         return np.zeros(len(cell_vertices), dtype=np.int64)
     import pymetis
 
-    xadj, adjncy = dual_graph(cell_vertices)
+    xadj, adjncy = dual_graph(cell_vertices, sides)
     vw = None if weights is None else np.asarray(weights, dtype=np.int64)
     if hasattr(pymetis, "CSRAdjacency"):      # arrays as they are (lists cost twice the METIS time)
         _, parts = pymetis.part_graph(nparts, adjacency=pymetis.CSRAdjacency(xadj, adjncy), vweights=vw)
@@ -68,15 +70,18 @@ def cut_cell_weights(raw: RawMesh, levelset: Formula | None) -> IntArray:
     """Cell weights: ``CUT_CELL_WEIGHT`` for cells whose nodes change sign, else 1."""
     if levelset is None:
         return np.ones(len(raw.cells), dtype=np.int64)
-    phi = levelset(x=raw.points[:, 0], y=raw.points[:, 1])[raw.cells]
+    from xfemcontact.fem.coordinates import coordinates
+
+    phi = levelset(**coordinates(raw.points))[raw.cells]
     cut = (phi.max(axis=1) >= 0) & (phi.min(axis=1) <= 0)
     return np.where(cut, CUT_CELL_WEIGHT, 1).astype(np.int64)
 
 
 def shell_partition(dm: PETSc.DMPlex, cell_vertices: IntArray, weights: IntArray,
-                    comm: PETSc.Comm) -> tuple[list[int], list[float] | None]:
+                    comm: PETSc.Comm, sides: IntArray | None = None) -> tuple[list[int], list[float] | None]:
     """Set ``dm``'s partitioner to the METIS partition (computed on rank 0, where
-    ``cell_vertices (ne, nv)`` and ``weights (ne,)`` are significant).
+    ``cell_vertices (ne, nv)`` and ``weights (ne,)`` are significant; ``sides``: see
+    :func:`dual_graph`).
 
     Returns the per-process (cells, weight) on every rank.
     """
@@ -85,7 +90,7 @@ def shell_partition(dm: PETSc.DMPlex, cell_vertices: IntArray, weights: IntArray
     mpi = comm.tompi4py()
     n = mpi.size
     if mpi.rank == 0:
-        parts = metis_parts(cell_vertices, n, weights)
+        parts = metis_parts(cell_vertices, n, weights, sides)
         order = np.argsort(parts, kind="stable")
         sizes = np.bincount(parts, minlength=n)
         load = np.bincount(parts, weights=weights, minlength=n)

@@ -1,10 +1,11 @@
 """The mesh in DMPlex, distributed over the processes, and its NumPy view per process.
 
-Vertices, edges and cells of the quadratic mesh are DMPlex points: a vertex point
-carries a corner node, an edge point carries the mid-edge node, so a QUAD8 or
-TRIA6 cell's nodes are exactly the points of its closure.  Mesh groups are
-DMLabels named like the groups (value 1): cell groups label cells, edge groups
-label edges, node groups label vertices or edges.  A nodal field (coordinates of
+Vertices, edges (faces in 3-D) and cells of the quadratic mesh are DMPlex points:
+a vertex point carries a corner node, an edge point carries the mid-edge node, so a
+QUAD8, TRIA6, HEXA20 or TETRA10 cell's nodes are exactly the vertex and edge points
+of its closure (3-D faces carry no node).  Mesh groups are DMLabels named like the
+groups (value 1): cell groups label cells, face groups faces, edge groups edges,
+node groups label vertices or edges.  A nodal field (coordinates of
 every node, mid-edge nodes included, and the node's index in the input mesh) and
 a cell field (the cell's index in the input mesh) are distributed with the mesh,
 so that curved edges survive distribution and every decision that must not
@@ -40,10 +41,8 @@ if TYPE_CHECKING:
     #: DMPlexCreateFromDAG through ctypes, False where it cannot be found
     DagFunction = Callable[..., int] | Literal[False]
 
-#: labels PETSc creates itself; never confused with mesh groups
-_INTERNAL_LABELS = {"depth", "celltype", "boundary"}
-_BOUNDARY = "boundary"
-ENTITY, NODE = 1, 2      # label values: cells/edges of a group, nodes of a node group
+from xfemcontact.mesh.labels import _BOUNDARY, _INTERNAL_LABELS, ENTITY, NODE  # noqa: F401
+from xfemcontact.mesh.labels import point_sf_leaves, set_stratum as _set_stratum  # noqa: F401
 
 
 def _edge_keys(a: IntArray, b: IntArray, n: int) -> IntArray:
@@ -53,6 +52,10 @@ def _edge_keys(a: IntArray, b: IntArray, n: int) -> IntArray:
 
 def _build_serial(raw: RawMesh, comm: PETSc.Comm) -> tuple[PETSc.DMPlex, IntArray]:
     """DMPlex of ``raw`` on rank 0 (empty elsewhere), with labels and boundary marks."""
+    if raw.dim == 3:
+        from xfemcontact.mesh.plex3d import build_serial
+
+        return build_serial(raw, comm)
     nv = raw.n_vertices_per_cell
     dag: _EdgeDag | None
     if comm.rank == 0:
@@ -230,14 +233,9 @@ def _label_groups(dm: PETSc.DMPlex, raw: RawMesh, vnodes: IntArray, vindex: IntA
             _set_stratum(lab, NODE, p[p >= 0])       # nodes of no cell cannot be DMPlex points
 
 
-def _set_stratum(label: PETSc.DMLabel, value: int, points: IntArray) -> None:
-    pts = np.unique(points).astype(PETSc.IntType)
-    label.setStratumIS(value, PETSc.IS().createGeneral(pts, comm=PETSc.COMM_SELF))
-
-
 def _nodal_field(dm: PETSc.DMPlex, node_of_point: IntArray, points: FloatArray,
                  data: Sequence[FloatArray], cells: IntArray) -> tuple[PETSc.Section, PETSc.Vec]:
-    """Section and Vec carrying (x, y, input node index, nodal fields...) on
+    """Section and Vec carrying (x, y, [z,] input node index, nodal fields...) on
     vertices and edges and (input cell index, input node indices of its nodes)
     on cells: once distributed, every process rebuilds its cells' nodes from
     these without walking DMPlex closures one cell at a time."""
@@ -245,7 +243,8 @@ def _nodal_field(dm: PETSc.DMPlex, node_of_point: IntArray, points: FloatArray,
     sec = PETSc.Section().create(comm=dm.comm)
     sec.setChart(pstart, pend)
     nn = cells.shape[1]
-    dofs = _field_dofs(dm, len(data), nn)
+    dim = points.shape[1]
+    dofs = _field_dofs(dm, len(data), nn, dim)
     list(map(sec.setDof, range(pstart, pend), dofs.tolist()))
     sec.setUp()
     vec = PETSc.Vec().createSeq(sec.getStorageSize(), comm=PETSc.COMM_SELF)
@@ -257,17 +256,22 @@ def _nodal_field(dm: PETSc.DMPlex, node_of_point: IntArray, points: FloatArray,
         a[off[cs:ce, None] + 1 + np.arange(nn)] = cells
         nodes = np.nonzero(node_of_point >= 0)[0]
         n = node_of_point[nodes]
-        a[off[nodes]] = points[n, 0]
-        a[off[nodes] + 1] = points[n, 1]
-        a[off[nodes] + 2] = n
+        for c in range(dim):
+            a[off[nodes] + c] = points[n, c]
+        a[off[nodes] + dim] = n
         for j, f in enumerate(data):
-            a[off[nodes] + 3 + j] = f[n]
+            a[off[nodes] + dim + 1 + j] = f[n]
     return sec, vec
 
 
-def _field_dofs(dm: PETSc.DMPlex, nfields: int, nn: int) -> IntArray:
+def _field_dofs(dm: PETSc.DMPlex, nfields: int, nn: int, dim: int) -> IntArray:
+    """Entries of the nodal field per point: coordinates, node index and fields on
+    vertices and edges, 1 + nn on cells, none on 3-D faces."""
     pstart, pend = dm.getChart()
-    dofs = np.full(pend - pstart, 3 + nfields, dtype=np.int64)
+    dofs = np.zeros(pend - pstart, dtype=np.int64)
+    for depth in (0, 1):
+        start, end = dm.getDepthStratum(depth)
+        dofs[start - pstart:end - pstart] = dim + 1 + nfields
     cs, ce = dm.getHeightStratum(0)
     dofs[cs - pstart:ce - pstart] = 1 + nn
     return dofs
@@ -289,18 +293,10 @@ def _partition(dm: PETSc.DMPlex, raw: RawMesh, comm: PETSc.Comm,
 
     verts = raw.cells[:, :raw.n_vertices_per_cell]          # no cells on ranks other than 0
     weights = cell_weights if cell_weights is not None else np.ones(len(verts), np.int64)
-    sizes, load = partition.shell_partition(dm, verts, weights, comm)
+    el = element(raw.cell_type)
+    sides = el.faces[:, :el.faces.shape[1] // 2] if el.dim == 3 else None
+    sizes, load = partition.shell_partition(dm, verts, weights, comm, sides)
     return {"partitioner": "metis", "cells": sizes, "weight": load}
-
-
-def point_sf_leaves(dm: PETSc.DMPlex) -> IntArray:
-    """Local points owned by another process (leaves of the point SF)."""
-    if dm.comm.size == 1:
-        return np.zeros(0, dtype=np.int64)
-    nroots, leaves, _ = dm.getPointSF().getGraph()
-    if nroots < 0 or leaves is None:
-        return np.zeros(0, dtype=np.int64)
-    return np.asarray(leaves, dtype=np.int64)
 
 
 @dataclass
@@ -320,7 +316,7 @@ class LocalMesh:
     cell_ids: IntArray         # (nc,) cell index in the input mesh
     node_points: IntArray      # (n,) DMPlex point of each local node
     node_of_point: IntArray    # (chart,) local node of each point, -1 for cells
-    x: FloatArray              # (n, 2) node coordinates, m
+    x: FloatArray              # (n, dim) node coordinates, m
     node_ids: IntArray         # (n,) node index in the input mesh
     node_owned: BoolArray      # (n,) bool, this process owns the node's point
     n_vertices: int            # local nodes [0, n_vertices) are vertices
@@ -359,8 +355,13 @@ class LocalMesh:
     def element(self) -> Element:
         return element(self.cell_type)
 
+    @property
+    def dim(self) -> int:
+        """Space dimension (2 or 3)."""
+        return self.element.dim
+
     def cell_coordinates(self) -> FloatArray:
-        """``(nc, nn, 2)`` node coordinates of every local cell."""
+        """``(nc, nn, dim)`` node coordinates of every local cell."""
         return self.x[self.cell_nodes]
 
     @cached_property
@@ -399,7 +400,7 @@ class LocalMesh:
         return np.asarray(iset.getIndices(), dtype=np.int64) if iset.getSize() else np.zeros(0, np.int64)
 
     def group_nodes(self, name: str) -> IntArray:
-        """Local nodes of group ``name``: nodes of its cells and edges, and its nodes."""
+        """Local nodes of group ``name``: nodes of its cells, faces and edges, and its nodes."""
         pts = self.group_points(name)
         cs, ce = self.plex.getHeightStratum(0)
         is_cell = (pts >= cs) & (pts < ce)
@@ -408,6 +409,10 @@ class LocalMesh:
             cell_index = np.searchsorted(self.cells, pts[is_cell])
             nodes.append(self.cell_nodes[cell_index].ravel())
         edges = self._edge_points(pts[~is_cell])
+        if self.dim == 3:
+            from xfemcontact.mesh import plex3d
+
+            edges = np.r_[edges, plex3d.face_edges(self.plex, pts[~is_cell]).ravel()]
         if len(edges):
             nodes.append(self.edge_nodes(edges).ravel())
         return np.unique(np.concatenate(nodes)).astype(np.int64)
@@ -458,6 +463,18 @@ class LocalMesh:
                     break
         return cell, local
 
+    def group_faces(self, name: str) -> tuple[IntArray, IntArray, IntArray]:
+        """Faces of 3-D group ``name`` this process integrates on (each face once overall).
+
+        Returns ``(nodes (k, nf), cell (k,), local_face (k,))``: the face's nodes in
+        its element's order (QUAD8, TRIA6) oriented like the face ``local_face`` of the
+        local cell ``cell``, so that the right-hand rule gives the outward normal.
+        """
+        from xfemcontact.mesh import plex3d
+
+        return plex3d.group_faces(self.plex, self.element, self.node_of_point, self.cell_nodes,
+                                  self.group_points(name))
+
     def boundary_edges(self) -> IntArray:
         """Nodes ``(k, 3)`` of domain-boundary edges held by local cells (all of them)."""
         edges = self._edge_points(self._stratum(_BOUNDARY))
@@ -507,7 +524,7 @@ def _no_cells(cell_type: str, source: str) -> RawMesh:
     """Stands for the RawMesh on ranks other than 0 (which hold no cells)."""
     from xfemcontact.mesh.raw import RawMesh
 
-    return RawMesh(points=np.zeros((0, 2)), cell_type=cell_type,
+    return RawMesh(points=np.zeros((0, element(cell_type).dim)), cell_type=cell_type,
                    cells=np.zeros((0, element(cell_type).nn), np.int64), source=source)
 
 
@@ -518,22 +535,23 @@ def _local_view(dm: PETSc.DMPlex, sec: PETSc.Section, vec: PETSc.Vec, cell_type:
     vs, ve = dm.getDepthStratum(0)
     es, ee = dm.getDepthStratum(1)
     el = element(cell_type)
+    dim = el.dim
     node_points = np.r_[np.arange(vs, ve), np.arange(es, ee)].astype(np.int64)
     node_of_point = np.full(pend - pstart, -1, dtype=np.int64)
     node_of_point[node_points] = np.arange(len(node_points))
     cells = np.arange(cs, ce, dtype=np.int64)
-    dofs = _field_dofs(dm, len(field_names), el.nn)
+    dofs = _field_dofs(dm, len(field_names), el.nn, dim)
     off = _field_offsets(dofs)
     if sec.getChart()[1] > sec.getChart()[0] and pend > pstart:
         probe = node_points[-1] if len(node_points) else cs
         assert sec.getOffset(int(probe)) == off[probe], "unexpected section layout"
     a = vec.getArray(readonly=True)
     noff = off[node_points]
-    x = np.c_[a[noff], a[noff + 1]] if len(noff) else np.zeros((0, 2))
-    node_ids = a[noff + 2].astype(np.int64) if len(noff) else np.zeros(0, np.int64)
+    x = np.stack([a[noff + c] for c in range(dim)], axis=1) if len(noff) else np.zeros((0, dim))
+    node_ids = a[noff + dim].astype(np.int64) if len(noff) else np.zeros(0, np.int64)
     cell_ids = a[off[cells]].astype(np.int64) if len(cells) else np.zeros(0, np.int64)
     cell_nodes = _local_cell_nodes(a[off[cells][:, None] + 1 + np.arange(el.nn)].astype(np.int64), node_ids)
-    node_data = {name: (a[noff + 3 + j] if len(noff) else np.zeros(0)) for j, name in enumerate(field_names)}
+    node_data = {name: (a[noff + dim + 1 + j] if len(noff) else np.zeros(0)) for j, name in enumerate(field_names)}
     owned = np.ones(pend - pstart, dtype=bool)
     leaves = point_sf_leaves(dm)
     owned[leaves] = False

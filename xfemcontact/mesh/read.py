@@ -1,12 +1,18 @@
-"""Read a quadratic 2-D mesh file into a checked :class:`RawMesh` (through meshio).
+"""Read a quadratic 2-D or 3-D mesh file into a checked :class:`RawMesh` (through meshio).
 
 Supported files: MED (``.med``, ``.mmed``), Gmsh (``.msh``), XDMF (``.xdmf``,
-``.xmf``) and VTU (``.vtu``).  The mesh must hold exactly one 2-D quadratic cell
-type: meshio ``quad8`` (our QUAD8) or ``triangle6`` (our TRIA6); several blocks
-of it are concatenated in file order.  ``line3`` blocks become edge groups
-(rows ``(a, b, mid)``) and ``vertex`` blocks node groups; a block that belongs
-to no group is dropped.  Node numbering is kept as in the file, unused nodes
-included.  Coordinates are taken in the file's unit (m for our cases).
+``.xmf``) and VTU (``.vtu``).  The mesh must hold exactly one quadratic cell type of
+its highest dimension: in 2-D meshio ``quad8`` (our QUAD8) or ``triangle6`` (our
+TRIA6), in 3-D ``hexahedron20`` (HEXA20) or ``tetra10`` (TETRA10); several blocks
+of it are concatenated in file order.  In a 3-D mesh the ``quad8`` / ``triangle6``
+blocks (the faces of its cells) become face groups; ``line3`` blocks become edge
+groups (rows ``(a, b, mid)``) and ``vertex`` blocks node groups; a block that
+belongs to no group is dropped.  Node numbering is kept as in the file, unused
+nodes included.  Coordinates are taken in the file's unit (m for our cases).
+
+Node order: meshio keeps MED's (code_aster's, ours); the cells it reads from Gmsh,
+XDMF and VTU files are in VTK's order, the mirror image of MED's for 3-D cells: they
+are turned into ours (:attr:`~xfemcontact.fem.elements.Element.reverse`).
 
 Where the group names come from:
 
@@ -72,12 +78,17 @@ FORMATS = {".med": "med", ".mmed": "med", ".msh": "gmsh",
 _FORMAT_NAMES = {"med": "MED", "gmsh": "Gmsh", "xdmf": "XDMF", "vtu": "VTU"}
 #: supported meshio 2-D cell type -> our cell type
 CELL_NAMES = {"quad8": "QUAD8", "triangle6": "TRIA6"}
+#: supported meshio 3-D cell type -> our cell type, and the meshio type of its faces
+SOLID_NAMES = {"hexahedron20": "HEXA20", "tetra10": "TETRA10"}
+FACE_TYPES = {"hexahedron20": "quad8", "tetra10": "triangle6"}
 EDGE_TYPE, NODE_TYPE = "line3", "vertex"
 #: separators meshio's ``join_strings`` tries, in its order
 _JOIN_CHARS = "-_#+/"
 _LINEAR_HINT = "mesh with quadratic elements: Gmsh -order 2, Salome 'quadratic mesh'"
 _QUAD9_HINT = ("Gmsh writes order-2 quadrilaterals as quad9 unless "
                "Mesh.SecondOrderIncomplete=1")
+_HEXA27_HINT = ("Gmsh writes order-2 hexahedra as hexahedron27 unless "
+                "Mesh.SecondOrderIncomplete=1")
 
 
 def read_mesh(path: PathName, display_name: str | None = None, roots: Sequence[PathName] | None = None,
@@ -373,8 +384,16 @@ def from_meshio(m: meshio.Mesh, source: str = "<meshio>", fmt: str | None = None
     """
     blocks = [(b.type, np.asarray(b.data, dtype=np.int64)) for b in m.cells]
     cell_type = _cell_type(blocks, source)
-    points = _planar_points(np.asarray(m.points, dtype=float), source)
-    typed = {t: _stack(blocks, t) for t in (cell_type, EDGE_TYPE, NODE_TYPE)}
+    solid = cell_type in SOLID_NAMES
+    points = _points(np.asarray(m.points, dtype=float), source, solid)
+    if solid and fmt != "med":          # VTK's order (meshio's for these formats) -> MED's
+        from xfemcontact.fem.elements import element
+
+        reverse = element(SOLID_NAMES[cell_type]).reverse
+        blocks = [(t, d[:, reverse] if t == cell_type else d) for t, d in blocks]
+    face_type = FACE_TYPES.get(cell_type)
+    kinds = (cell_type, EDGE_TYPE, NODE_TYPE) + ((face_type,) if face_type else ())
+    typed = {t: _stack(blocks, t) for t in kinds}
     parts: dict[str, dict[str, list[IntArray]]] = {t: {} for t in typed}
     for name, k, idx in _block_sets(m, fmt, len(blocks)):
         kind = blocks[k][0]
@@ -387,14 +406,16 @@ def from_meshio(m: meshio.Mesh, source: str = "<meshio>", fmt: str | None = None
         _add(node_parts, name, idx)
     mesh = RawMesh(
         points=points,
-        cell_type=CELL_NAMES[cell_type],
+        cell_type={**CELL_NAMES, **SOLID_NAMES}[cell_type],
         cells=np.ascontiguousarray(typed[cell_type][0]),
         cell_groups=groups[cell_type],
         edge_groups={name: typed[EDGE_TYPE][0][idx]
                      for name, idx in groups[EDGE_TYPE].items()},
         node_groups=_unique_all(node_parts),
         source=source,
-        point_data=_scalar_point_data(m, len(points)))
+        point_data=_scalar_point_data(m, len(points)),
+        face_groups={name: typed[face_type][0][idx]
+                     for name, idx in groups[face_type].items()} if face_type else {})
     _check_group_nodes(mesh)
     return mesh.check()
 
@@ -460,6 +481,15 @@ def _truncated(path: PathName, fmt: str, exc: Exception, text: str) -> bool:
 
 
 # -- geometry and cells ------------------------------------------------------------
+def _points(points: FloatArray, source: str, solid: bool) -> FloatArray:
+    """Node coordinates: ``(n, 3)`` of a mesh of 3-D cells, else :func:`_planar_points`."""
+    if not solid:
+        return _planar_points(points, source)
+    if points.ndim != 2 or points.shape[1] != 3 or len(points) == 0:
+        raise MeshError(f"{source}: 3-D cells need x, y, z node coordinates (shape {points.shape})")
+    return np.ascontiguousarray(points)
+
+
 def _planar_points(points: FloatArray, source: str) -> FloatArray:
     """``(n, 2)`` coordinates from meshio's ``(n, 2|3)``; z must be constant."""
     if points.ndim != 2 or points.shape[1] not in (2, 3) or len(points) == 0:
@@ -495,17 +525,16 @@ def _census(blocks: Sequence[Block], types: Collection[str]) -> str:
 
 
 def _cell_type(blocks: Sequence[Block], source: str) -> str:
-    """The one supported 2-D meshio type of ``blocks``, or MeshError.
+    """The one supported meshio type of the cells of ``blocks`` (3-D if any), or MeshError.
 
-    3-D cells are reported first, then unsupported 2-D cells (with hints),
-    then 1-D cells other than line3.
+    Unsupported 3-D cells are reported first (with hints), then unsupported 2-D
+    cells (with hints), then 1-D cells other than line3.
     """
     types = {t for t, _ in blocks}
     dims = {t: _dimension(t) for t in types}
     solid = {t for t in types if dims[t] == 3}
     if solid:
-        raise MeshError(f"{source}: unsupported cells {_census(blocks, solid)} "
-                        f"(2-D meshes only)")
+        return _solid_type(blocks, solid, {t for t in types if dims[t] == 2}, source)
     plane = {t for t in types if dims[t] == 2}
     if not plane:
         raise MeshError(f"{source}: no 2-D cells (found: {_census(blocks, types)})")
@@ -516,6 +545,33 @@ def _cell_type(blocks: Sequence[Block], source: str) -> str:
         raise MeshError(f"{source}: unsupported cells {_census(blocks, lines)} "
                         f"(edge groups must be {EDGE_TYPE} cells)")
     return plane.pop()
+
+
+def _solid_type(blocks: Sequence[Block], solid: set[str], plane: set[str], source: str) -> str:
+    """The one supported 3-D meshio type of ``blocks`` (``solid``: its 3-D types, ``plane``
+    its 2-D ones, which must be that cell's faces), or MeshError with hints."""
+    if len(solid) > 1 or not solid <= set(SOLID_NAMES):
+        hints = []
+        if solid & {"tetra", "hexahedron"}:
+            hints.append(_LINEAR_HINT)
+        if "hexahedron27" in solid:
+            hints.append(_HEXA27_HINT)
+        if len(solid) > 1:
+            hints.append("one cell type per mesh")
+        supported = ", ".join(f"{k} ({v})" for k, v in SOLID_NAMES.items())
+        raise MeshError(f"{source}: unsupported 3-D cells {_census(blocks, solid)} "
+                        f"(supported: exactly one of {supported})"
+                        + "".join(f"; {h}" for h in hints))
+    cell = next(iter(solid))
+    faces = plane - {FACE_TYPES[cell]}
+    if faces:
+        raise MeshError(f"{source}: unsupported faces {_census(blocks, faces)} in a mesh of "
+                        f"{cell} cells (face groups must be {FACE_TYPES[cell]} cells)")
+    lines = {t for t, _ in blocks if _dimension(t) == 1 and t != EDGE_TYPE}
+    if lines:
+        raise MeshError(f"{source}: unsupported cells {_census(blocks, lines)} "
+                        f"(edge groups must be {EDGE_TYPE} cells)")
+    return cell
 
 
 def _unsupported_plane(blocks: Sequence[Block], plane: set[str], source: str) -> NoReturn:
@@ -650,9 +706,9 @@ def _scalar_point_data(m: meshio.Mesh, n_points: int) -> dict[str, FloatArray]:
 
 
 def _check_group_nodes(mesh: RawMesh) -> None:
-    """MeshError if an edge or node group refers to a node the mesh does not have."""
+    """MeshError if a face, edge or node group refers to a node the mesh does not have."""
     n = len(mesh.points)
-    for kind, groups in (("edge", mesh.edge_groups), ("node", mesh.node_groups)):
+    for kind, groups in (("face", mesh.face_groups), ("edge", mesh.edge_groups), ("node", mesh.node_groups)):
         for name, idx in groups.items():
             bad = idx[(idx < 0) | (idx >= n)]
             if len(bad):

@@ -64,6 +64,8 @@ def refine_uniform(mesh: RawMesh, levels: int = 1) -> RawMesh:
     """
     if not isinstance(levels, (int, np.integer)) or isinstance(levels, bool) or levels < 0:
         raise MeshError(f"refine_uniform: levels must be a non-negative integer (got {levels!r})")
+    if levels and mesh.dim == 3:
+        raise MeshError(f"{mesh.source}: uniform refinement is for 2-D meshes only (for now)")
     if levels:                        # the refined mesh must fit before it is built
         from xfemcontact import resources
 

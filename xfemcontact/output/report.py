@@ -94,7 +94,7 @@ def render(summary: dict[str, Any], files: Iterable[str], case_source: str = "",
                       [["OK" if t["ok"] else "**NOOK**", t["name"], t["field"], t["type"],
                         _number(t["value"], ".10e", "no point selected" if not t.get("samples") else "-"),
                         f"{t['reference']:.10e}", _number(t["error"], ".3e"), f"{t['tolerance']:.2e}", t["criterion"],
-                        "-" if not t.get("at") else f"({t['at'][0]:.6g}, {t['at'][1]:.6g})"] for t in s["tests"]])
+                        "-" if not t.get("at") else "(" + ", ".join(f"{c:.6g}" for c in t["at"]) + ")"] for t in s["tests"]])
     else:
         out.append("No tests in the case." if s["converged"] else "Not converged: no test evaluated.")
     out += ["", "## Timings (s)", ""]

@@ -1,7 +1,7 @@
 """fields.xdmf + fields.h5: the post-processing mesh for ParaView (XDMF3, HDF5 data).
 
 Written directly with h5py, one dataset per array in a single pass, in the
-layout meshio 5's XDMF writer uses (``data0`` the points with z = 0, ``data1``
+layout meshio 5's XDMF writer uses (``data0`` the points, z = 0 in 2-D, ``data1``
 the cells, then the point fields and the cell fields, in that order; a Mixed
 topology when there are quadrangles and triangles): the files are the ones
 meshio wrote before, byte for byte in the XML and value for value in the HDF5,
@@ -21,9 +21,11 @@ if TYPE_CHECKING:
 
     from xfemcontact.post.postmesh import PostMesh
 
-#: XDMF topology names and Mixed-topology type codes of our cell types
-XDMF_TYPE = {"quad8": "Quadrilateral_8", "triangle6": "Triangle_6"}
-XDMF_CODE = {"quad8": 0x25, "triangle6": 0x24}
+#: XDMF topology names and Mixed-topology type codes of our cell types (meshio's names;
+#: XDMF's node order of the 3-D cells is VTK's, meshio's)
+XDMF_TYPE = {"quad8": "Quadrilateral_8", "triangle6": "Triangle_6",
+             "hexahedron20": "Hexahedron_20", "tetra10": "Tetrahedron_10"}
+XDMF_CODE = {"quad8": 0x25, "triangle6": 0x24, "hexahedron20": 0x30, "tetra10": 0x26}
 _DTYPE = {"int32": ("Int", "4"), "int64": ("Int", "8"), "float32": ("Float", "4"), "float64": ("Float", "8")}
 
 
@@ -65,7 +67,7 @@ def write(path: str | os.PathLike[str], post: PostMesh) -> None:
     with h5py.File(h5_path, "w") as h5:
         w = _Writer(h5, os.path.basename(h5_path))
         pts = np.zeros((n, 3))
-        pts[:, :2] = post.points
+        pts[:, :post.points.shape[1]] = post.points
         w.item(ET.SubElement(grid, "Geometry", GeometryType="XYZ"), pts, f"{n} 3")
         del pts
         blocks = [(t, np.asarray(c)) for t, c in post.blocks]

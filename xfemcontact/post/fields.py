@@ -37,15 +37,15 @@ class PointValues:
     """Values at quadrature points of a set of cells."""
 
     cells: IntArray                 # (k,) local cell index of each row
-    x: FloatArray                   # (k, nq, 2)
-    w: FloatArray                   # (k, nq) weights (0 on padding), m^2
+    x: FloatArray                   # (k, nq, d)
+    w: FloatArray                   # (k, nq) weights (0 on padding), m^d
     side: IntArray | FloatArray     # (k, nq) -1/+1 (interface) or 1
-    stress: FloatArray              # (k, nq, 3) SIXX, SIYY, SIXY, Pa
-    strain: FloatArray              # (k, nq, 3) EPXX, EPYY, 2 EPXY
+    stress: FloatArray              # (k, nq, nv) SIXX, SIYY, SIXY (3-D: SIXX, SIYY, SIZZ, SIXY, SIXZ, SIYZ), Pa
+    strain: FloatArray              # (k, nq, nv) the same order, engineering shears
 
 
 def nodal_displacement(layout: DofLayout, x_local: FloatArray) -> FloatArray:
-    """``(n, 2)`` DX, DY at the local nodes, m."""
+    """``(n, d)`` DX, DY, [DZ] at the local nodes, m."""
     return x_local[layout.u_local]
 
 
@@ -66,7 +66,8 @@ def quadrature_stresses(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout
 
 def cell_mean_strains(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout,
                       x_local: FloatArray) -> FloatArray:
-    """Area-weighted mean strain ``(nc, 3)`` (Voigt, engineering shear) of every local cell.
+    """Area- (volume-) weighted mean strain ``(nc, nv)`` (Voigt, engineering shear) of
+    every local cell.
 
     Affine uncut cells in closed form (the mean of the reference gradients times
     the cell's inverse Jacobian, one BLAS product per batch); other cells through
@@ -74,9 +75,9 @@ def cell_mean_strains(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout,
     mean stress is ``eps @ D.T`` (linear elasticity).
     """
     el = mesh.element
-    eps = np.zeros((len(mesh.cells), 3))
+    eps = np.zeros((len(mesh.cells), 3 * el.dim - 3))
     q, wq = el.quadrature(4)
-    mean_dshape = np.einsum("q,qai->ai", wq, el.dshape(q))[None] / wq.sum()   # (1, nn, 2)
+    mean_dshape = np.einsum("q,qai->ai", wq, el.dshape(q))[None] / wq.sum()   # (1, nn, d)
     for cells, xc, ue, aff in _plain_chunks(mesh, geo, layout, x_local):
         if aff.any():
             _, M = elasticity.inverse_jacobians(el.jacobians(xc[aff], q[:1])[:, 0])
@@ -91,7 +92,7 @@ def cell_mean_strains(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout,
 
 def _plain_chunks(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout,
                   x_local: FloatArray) -> Iterator[tuple[IntArray, FloatArray, FloatArray, BoolArray]]:
-    """Uncut, unenriched cells by batches: ``(cells, xc (k, nn, 2), ue (k, 2 nn), affine (k,))``."""
+    """Uncut, unenriched cells by batches: ``(cells, xc (k, nn, d), ue (k, d nn), affine (k,))``."""
     plain = geo.plain_cells(mesh) if geo is not None else np.arange(len(mesh.cells))
     for s in range(0, len(plain), bulk.CHUNK):
         cells = plain[s:s + bulk.CHUNK]
@@ -110,17 +111,17 @@ def _enriched_strains(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout,
 
 
 def _weighted_mean(w: FloatArray, e: FloatArray) -> FloatArray:
-    """Per cell, the mean of ``e (k, nq, 3)`` with weights ``w (k, nq)``."""
+    """Per cell, the mean of ``e (k, nq, nv)`` with weights ``w (k, nq)``."""
     return np.einsum("kq,kqi->ki", w, e) / w.sum(axis=1)[:, None]
 
 
 def _affine_points(el: Element, xc: FloatArray, ue: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Points ``x (k, nq, 2)``, weights ``(k, nq)`` and strains ``(k, nq, 3)`` of
-    affine cells ``xc (k, nn, 2)``: one Jacobian per cell, BLAS over the batch."""
+    """Points ``x (k, nq, d)``, weights ``(k, nq)`` and strains ``(k, nq, nv)`` of
+    affine cells ``xc (k, nn, d)``: one Jacobian per cell, BLAS over the batch."""
     q, wq = el.quadrature(4)
-    nq, nn = len(q), xc.shape[1]
+    nq, nn, d = len(q), xc.shape[1], xc.shape[2]
     det, M = elasticity.inverse_jacobians(el.jacobians(xc, q[:1])[:, 0])
-    x = (xc.transpose(0, 2, 1).reshape(-1, nn) @ el.shape(q).T).reshape(len(xc), 2, nq).transpose(0, 2, 1)
+    x = (xc.transpose(0, 2, 1).reshape(-1, nn) @ el.shape(q).T).reshape(len(xc), d, nq).transpose(0, 2, 1)
     return x, wq[None] * det[:, None], elasticity.affine_strain(el.dshape(q), M, ue)
 
 

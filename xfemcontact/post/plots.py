@@ -539,12 +539,14 @@ def mesh_jobs(title: str, post: PostMesh | None = None, table: InterfaceTable | 
     :func:`deformed_data` to what the picture shows, and the statuses."""
     umax, size = 0.0, 1.0
     if post is not None and len(post.points):
-        umax = float(np.nan_to_num(np.hypot(post.point_data["DX"], post.point_data["DY"])).max())
+        umax = float(np.nan_to_num(np.linalg.norm(post.displacement(), axis=1)).max()) \
+            if post.points.shape[1] == 3 else \
+            float(np.nan_to_num(np.hypot(post.point_data["DX"], post.point_data["DY"])).max())
         size = float(np.max(_column_max(post.points) - _column_min(post.points))) or 1.0
     jobs: list[Job] = []
     if table is not None and len(table.columns["s"]):
         jobs.append(("plot_status.png", "status_figure", (table.columns, title, umax, friction)))
-    if post is not None:
+    if post is not None and post.points.shape[1] == 2:          # the deformed mesh is drawn in 2-D only
         data = deformed_data(post.points, post.blocks, post.point_data, post.cell_data,
                              stress_scale=young * umax / size)
         jobs.append(("plot_deformed.png", "draw_deformed", (data, title)))

@@ -1,22 +1,23 @@
 """The post-processing mesh, like code_aster's POST_MAIL_XFEM + POST_CHAM_XFEM.
 
-* uncut cells are kept as they are (QUAD8 or TRIA6);
+* uncut cells are kept as they are (QUAD8, TRIA6; HEXA20, TETRA10 in 3-D, where no
+  cell is cut yet);
 * every cut cell is replaced by its 6-node sub-triangles (:mod:`xfemcontact.xfem.cut`),
   whose physical nodes are the parent map of their reference nodes;
 * a point shared by cells of both sides (a point of the interface: where it
   crosses cell edges, the segment mid-points, mesh nodes with LN = 0) is
   duplicated, one copy per side, so the displacement jump shows.
 
-Point fields: DX, DY (m, the displacement of the point's own side, Heaviside
-part included), ``displacement`` (DX, DY, 0) for ParaView's *Warp By Vector*,
+Point fields: DX, DY, [DZ] (m, the displacement of the point's own side, Heaviside
+part included), ``displacement`` (DX, DY, 0 or DZ) for ParaView's *Warp By Vector*,
 LAGS_C (Pa) and LAGS_F1 (-) at interface points (0 elsewhere), the contact
 (1 contact / 0 open) and sliding (1 slip / 0 stick) statuses of the nearest
 interface Gauss point (0 elsewhere), and NFISSU: -1 on the copies of the
 LN < 0 side (code_aster's "NM" nodes), +1 on those of the LN > 0 side ("NP"),
 0 off the interface.
 
-Cell fields: SIXX, SIYY, SIXY (Pa) and EPXX, EPYY, EPXY (tensor shear strain)
-averaged over the cell or sub-cell, ``side`` (-1/+1; 0 without interface),
+Cell fields: SIXX, SIYY, SIXY (Pa) and EPXX, EPYY, EPXY (tensor shear strain; in 3-D
+the six components XX, YY, ZZ, XY, XZ, YZ) averaged over the cell or sub-cell, ``side`` (-1/+1; 0 without interface),
 ``cell`` (the input cell index) and ``subcell`` (index of the sub-triangle in
 its parent, -1 for uncut cells).
 
@@ -26,6 +27,9 @@ In MED files the interface copies also form node groups NM (LN < 0 side), NP
 Every process computes its own cells; rank 0 gathers them and numbers cells by
 (block, input cell, sub-cell) and points by first use, so the files do not
 depend on the number of processes.
+
+Connectivities are in meshio's (VTK's) node order, that of XDMF and VTU files: the
+mirror image of ours (MED's) for 3-D cells (:func:`meshio_order`).
 """
 from __future__ import annotations
 
@@ -54,7 +58,7 @@ if TYPE_CHECKING:
     #: arrays by name, of one length (rows, points or samples)
     Columns = dict[str, NDArray[Any]]
 
-MESHIO_CELL = {"QUAD8": "quad8", "TRIA6": "triangle6"}
+MESHIO_CELL = {"QUAD8": "quad8", "TRIA6": "triangle6", "HEXA20": "hexahedron20", "TETRA10": "tetra10"}
 #: interface points of a cut-cell segment: its ends, mid-point and quarter points
 SEGMENT_POINTS = np.array([-1.0, -0.5, 0.0, 0.5, 1.0])
 #: points closer than this fraction of the mesh's bounding-box diagonal are one point
@@ -62,44 +66,75 @@ MERGE_TOL = 1e-11
 #: interface samples farther than this (same unit) from every interface point are not post-mesh points
 SAMPLE_TOL = 1e-9
 CELL_FIELDS = ("SIXX", "SIYY", "SIXY", "EPXX", "EPYY", "EPXY", "side", "cell", "subcell")
+#: the same in 3-D
+CELL_FIELDS_3D = ("SIXX", "SIYY", "SIZZ", "SIXY", "SIXZ", "SIYZ",
+                  "EPXX", "EPYY", "EPZZ", "EPXY", "EPXZ", "EPYZ", "side", "cell", "subcell")
+#: Voigt components, per dimension
+VOIGT = {2: ("XX", "YY", "XY"), 3: ("XX", "YY", "ZZ", "XY", "XZ", "YZ")}
+
+
+def meshio_order(cell_type: str) -> IntArray | None:
+    """The permutation taking our (MED's) node order of ``cell_type`` to meshio's (VTK's),
+    None when they agree (2-D cells).  It is its own inverse."""
+    from xfemcontact.fem.elements import element
+
+    el = element(cell_type)
+    return el.reverse if el.dim == 3 else None
 
 
 @dataclass
 class PostMesh:
     """The post-processing mesh of the whole model (rank 0)."""
 
-    points: FloatArray                          # (np, 2) m
-    blocks: list[tuple[str, IntArray]]          # [(meshio cell type, connectivity (k, nn))], quad8 before triangle6
+    points: FloatArray                          # (np, d) m
+    blocks: list[tuple[str, IntArray]]          # [(meshio cell type, connectivity (k, nn))], quad8 before
+                                                # triangle6, in meshio's node order
     point_data: dict[str, NDArray[Any]]         # name -> (np,)
     cell_data: dict[str, list[NDArray[Any]]]    # name -> [(k,) per block]
 
     def point_fields(self) -> Iterator[tuple[str, NDArray[Any]]]:
         """``(name, array)`` of the point fields of the XDMF and VTU files: those of
-        :attr:`point_data`, then ``displacement`` (DX, DY, 0) for ParaView."""
+        :attr:`point_data`, then ``displacement`` (DX, DY, 0 or DZ) for ParaView."""
         yield from self.point_data.items()
+        yield "displacement", self.displacement()
+
+    def displacement(self) -> FloatArray:
+        """``(np, 3)`` DX, DY and DZ (0 in 2-D), m."""
         pd = self.point_data
         disp = np.zeros((len(self.points), 3))
         disp[:, 0], disp[:, 1] = pd["DX"], pd["DY"]
-        yield "displacement", disp
+        if "DZ" in pd:
+            disp[:, 2] = pd["DZ"]
+        return disp
 
     def to_meshio(self, med: bool = False) -> meshio.Mesh:
         """A meshio.Mesh: 3-D points and a ``displacement`` vector (for ParaView), or for
-        MED (``med``) 2-D points and the node groups NFISSU, NM (LN < 0 copies) and NP."""
+        MED (``med``) the points as they are (2-D in 2-D), the cells in MED's node order
+        and the node groups NFISSU, NM (LN < 0 copies) and NP."""
         import meshio
 
         pd = dict(self.point_data)
+        blocks = [(t, c) for t, c in self.blocks]
         if med:
             pts = self.points
             nf = pd["NFISSU"]
             pd["point_tags"] = np.where(nf == -1, 1, np.where(nf == 1, 2, 0)).astype(np.int64)
+            blocks = [(t, _to_ours(t, c)) for t, c in blocks]
         else:
-            pts = np.c_[self.points, np.zeros(len(self.points))]
-            pd["displacement"] = np.c_[pd["DX"], pd["DY"], np.zeros(len(self.points))]
-        m = meshio.Mesh(pts, [(t, c) for t, c in self.blocks], point_data=pd,
+            pts = np.c_[self.points, np.zeros(len(self.points))] if self.points.shape[1] == 2 else self.points
+            pd["displacement"] = self.displacement()
+        m = meshio.Mesh(pts, blocks, point_data=pd,
                         cell_data={k: list(v) for k, v in self.cell_data.items()})
         if med:
             m.point_tags = {1: ["NFISSU", "NM"], 2: ["NFISSU", "NP"]}
         return m
+
+
+def _to_ours(meshio_type: str, conn: IntArray) -> IntArray:
+    """Connectivity ``conn`` of meshio type ``meshio_type`` in our (MED's) node order."""
+    ours = {v: k for k, v in MESHIO_CELL.items()}.get(meshio_type)
+    perm = meshio_order(ours) if ours is not None else None
+    return conn if perm is None else conn[:, perm]
 
 
 # -- one process's cells ---------------------------------------------------------
@@ -107,9 +142,9 @@ def _pieces(model: Model, xl: FloatArray) -> Columns:
     """The post cells of this process, as padded arrays.
 
     Returns a dict: ``cell (m,)`` input ids, ``sub (m,)`` sub-cell index (-1
-    uncut), ``nn (m,)`` node count, ``x (m, nn, 2)`` node coordinates (m; nn the parent cell's node count),
+    uncut), ``nn (m,)`` node count, ``x (m, nn, d)`` node coordinates (m; nn the parent cell's node count),
     ``node (m, nn)`` input node ids (-1 at sub-cell nodes: merged by position),
-    ``u (m, nn, 2)`` displacements (m), ``side (m,)``, ``sig``, ``eps (m, 3)``.
+    ``u (m, nn, d)`` displacements (m), ``side (m,)``, ``sig``, ``eps (m, nv)``.
     """
     mesh, geo, layout = model.mesh, model.geo, model.layout
     el = mesh.element
@@ -162,7 +197,7 @@ def _subcell_pieces(model: Model, xl: FloatArray) -> Columns:
 
 
 def nodal_displacement(model: Model, xl: FloatArray, cells: IntArray, side: ArrayLike) -> FloatArray:
-    """Displacement ``(k, nn, 2)`` (m) at the nodes of local ``cells (k,)`` on side
+    """Displacement ``(k, nn, d)`` (m) at the nodes of local ``cells (k,)`` on side
     ``side (k,)``: the shape functions are 1 at their own node, so ``u_a + psi_a h_a``."""
     mesh, geo, layout = model.mesh, model.geo, model.layout
     nodes = mesh.cell_nodes[cells]
@@ -253,6 +288,7 @@ def assemble(pieces: Columns, samples: Columns | None, cell_type: str,
     ``near``: input node ids that sub-cell nodes may coincide with (all if None)."""
     tri = element("TRIA6")
     parent = element(cell_type)
+    d = parent.dim
     block = (pieces["nn"] == 6).astype(int) if cell_type == "QUAD8" else np.zeros(len(pieces["nn"]), int)
     if _sorted(block, pieces["cell"], pieces["sub"]):                        # one process, QUAD8
         p = pieces
@@ -262,7 +298,7 @@ def assemble(pieces: Columns, samples: Columns | None, cell_type: str,
         block = block[order]
     nn = p["nn"]
     slot = np.arange(p["x"].shape[1])[None, :] < nn[:, None]                  # (m, width) live node slots
-    xs = p["x"][slot]                                                         # (S, 2) in cell order
+    xs = p["x"][slot]                                                         # (S, d) in cell order
     side_s = np.repeat(p["side"], nn)
     loc = slot_locations(xs, p["node"][slot], near)
     # a point per (location, side); the interface is where a location has two sides
@@ -278,7 +314,8 @@ def assemble(pieces: Columns, samples: Columns | None, cell_type: str,
     nsides = np.bincount(ploc, minlength=ploc.max() + 1 if len(ploc) else 0)
     on_itf = nsides[ploc] > 1
     us = p["u"][slot][pfirst]
-    pd = {"DX": us[:, 0], "DY": us[:, 1], "LAGS_C": np.zeros(len(points)), "LAGS_F1": np.zeros(len(points)),
+    pd = {**{c: us[:, i] for i, c in enumerate(("DX", "DY", "DZ")[:d])},
+          "LAGS_C": np.zeros(len(points)), "LAGS_F1": np.zeros(len(points)),
           "contact": np.zeros(len(points)), "sliding": np.zeros(len(points)),
           "NFISSU": np.where(on_itf, pside, 0).astype(np.int64)}
     if samples is not None and on_itf.any():
@@ -286,18 +323,19 @@ def assemble(pieces: Columns, samples: Columns | None, cell_type: str,
     conn = np.full(slot.shape, -1, np.int64)
     conn[slot] = slot_point
     blocks: list[tuple[str, IntArray]] = []
-    cd: dict[str, list[NDArray[Any]]] = {k: [] for k in CELL_FIELDS}
+    cd: dict[str, list[NDArray[Any]]] = {k: [] for k in (CELL_FIELDS_3D if d == 3 else CELL_FIELDS)}
     names = [MESHIO_CELL[cell_type], "triangle6"] if cell_type == "QUAD8" else [MESHIO_CELL[cell_type]]
     for b, name in enumerate(names):
         rows = block == b
         if not rows.any():
             continue
-        n = parent.nn if (b == 0 and cell_type == "QUAD8") else tri.nn
-        blocks.append((name, conn[rows, :n]))
+        n = parent.nn if (b == 0 and cell_type in ("QUAD8", "HEXA20", "TETRA10")) else tri.nn
+        perm = meshio_order(cell_type) if b == 0 else None
+        blocks.append((name, conn[rows, :n] if perm is None else conn[rows][:, perm]))
         sig, eps = p["sig"][rows], p["eps"][rows]
-        for i, c in enumerate(("XX", "YY", "XY")):
+        for i, c in enumerate(VOIGT[d]):
             cd["SI" + c].append(sig[:, i])
-            cd["EP" + c].append(eps[:, i] * (0.5 if c == "XY" else 1.0))
+            cd["EP" + c].append(eps[:, i] * (0.5 if c[0] != c[1] else 1.0))
         cd["side"].append(p["side"][rows].astype(np.int64))
         cd["cell"].append(p["cell"][rows].astype(np.int64))
         cd["subcell"].append(p["sub"][rows].astype(np.int64))
@@ -352,15 +390,18 @@ def slot_locations(xs: FloatArray, node: IntArray, near: IntArray | None = None)
 
 
 def _diagonal(xs: FloatArray) -> float:
-    """Bounding-box diagonal of ``xs (S, 2)``, 1 if empty or a single point."""
+    """Bounding-box diagonal of ``xs (S, d)``, 1 if empty or a single point."""
     if len(xs) == 0:
         return 1.0
     # column by column: numpy reduces an (S, 2) array along axis 0 ten times slower
-    return float(np.hypot(*(np.ptp(xs[:, i]) for i in range(2)))) or 1.0
+    sides = [np.ptp(xs[:, i]) for i in range(xs.shape[1])]
+    if len(sides) == 2:
+        return float(np.hypot(*sides)) or 1.0
+    return float(np.sqrt(sum(a * a for a in sides))) or 1.0
 
 
 def merge_points(xs: FloatArray, diag: float | None = None) -> IntArray:
-    """Label ``(S,)`` of each point of ``xs (S, 2)``: equal for points closer than
+    """Label ``(S,)`` of each point of ``xs (S, d)``: equal for points closer than
     MERGE_TOL times the bounding-box diagonal, numbered by first appearance."""
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components

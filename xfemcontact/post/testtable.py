@@ -4,9 +4,9 @@ A test reduces one field over a set of samples:
 
 * ``interface`` fields (LAGS_C, LAGS_F1, gap, slip): the interface points
   (where the interface crosses cell edges), one sample per point and cell;
-* ``node`` fields (DX, DY): the mesh nodes;
-* ``cell`` fields (SIXX, SIYY, SIXY): the quadrature points of the cells (sub-cells
-  of cut cells).
+* ``node`` fields (DX, DY, [DZ]): the mesh nodes;
+* ``cell`` fields (SIXX, SIYY, SIXY; in 3-D SIXX, SIYY, SIZZ, SIXY, SIXZ, SIYZ): the
+  quadrature points of the cells (sub-cells of cut cells).
 
 Types: MIN, MAX, SOMM_ABS (sum of absolute values), MAX_ERROR (largest
 ``|value - reference formula|``, reference 0), VALUE (the sample nearest to
@@ -40,6 +40,14 @@ class Samples:
     x: FloatArray                     # (n,) m
     y: FloatArray                     # (n,) m
     fields: dict[str, FloatArray]     # field name -> (n,)
+    z: FloatArray | None = None       # (n,) m, 3-D meshes
+
+    def coordinates(self, keep: Any = slice(None)) -> dict[str, FloatArray]:
+        """``{"x": ..., "y": ..., ["z": ...]}`` of the samples ``keep``."""
+        out = {"x": self.x[keep], "y": self.y[keep]}
+        if self.z is not None:
+            out["z"] = self.z[keep]
+        return out
 
 
 @dataclass
@@ -55,7 +63,7 @@ class Outcome:
     criterion: str
     ok: bool
     count: int
-    at: tuple[float, float] | None = None
+    at: tuple[float, ...] | None = None       # (x, y) or (x, y, z)
     inst: float | None = None  # the instant tested (cases with [instants]), None otherwise
 
     @property
@@ -71,31 +79,37 @@ class Outcome:
 
 
 def _local(test, s, ref_formula):
+    """This process's part of ``test`` on samples ``s``: ``(count, value)``, the value
+    with where it is found (a tuple, coordinates last) or None."""
     v = s.fields[test.field]
     keep = np.ones(len(v), dtype=bool)
     if test.where is not None and len(v):
-        keep = np.asarray(test.where(x=s.x, y=s.y, **s.fields), dtype=bool)
-    v, x, y = v[keep], s.x[keep], s.y[keep]
+        keep = np.asarray(test.where(**s.coordinates(), **s.fields), dtype=bool)
+    v, xyz = v[keep], s.coordinates(keep)
+    at = list(xyz.values())
     n = len(v)
     if test.type in ("MIN", "MAX"):
         if n == 0:
             return (n, None)
         i = int(np.argmin(v) if test.type == "MIN" else np.argmax(v))
-        return (n, (float(v[i]), float(x[i]), float(y[i])))
+        return (n, (float(v[i]), *(float(c[i]) for c in at)))
     if test.type == "SOMM_ABS":
         return (n, float(np.abs(v).sum()))
     if test.type == "MAX_ERROR":
         if n == 0:
             return (n, None)
-        r = ref_formula(x=x, y=y)
+        r = ref_formula(**xyz)
         i = int(np.argmax(np.abs(v - r)))
-        return (n, (float(abs(v[i] - r[i])), float(x[i]), float(y[i]), float(np.abs(r).max())))
+        return (n, (float(abs(v[i] - r[i])), *(float(c[i]) for c in at), float(np.abs(r).max())))
     # VALUE
     if n == 0:
         return (n, None)
-    d = np.hypot(x - test.point[0], y - test.point[1])
+    if len(at) == 2:
+        d = np.hypot(at[0] - test.point[0], at[1] - test.point[1])
+    else:
+        d = np.sqrt(sum((c - p) ** 2 for c, p in zip(at, test.point)))
     i = int(np.argmin(d))
-    return (n, (float(d[i]), float(v[i]), float(x[i]), float(y[i])))
+    return (n, (float(d[i]), float(v[i]), *(float(c[i]) for c in at)))
 
 
 def _combine(test, parts):
@@ -107,15 +121,15 @@ def _combine(test, parts):
         return count, np.nan, None, None
     if test.type == "MIN":
         v = min(vals)
-        return count, v[0], (v[1], v[2]), None
+        return count, v[0], tuple(v[1:]), None
     if test.type == "MAX":
         v = max(vals)
-        return count, v[0], (v[1], v[2]), None
+        return count, v[0], tuple(v[1:]), None
     if test.type == "MAX_ERROR":
         v = max(vals)
-        return count, v[0], (v[1], v[2]), max(p[3] for p in vals)
+        return count, v[0], tuple(v[1:-1]), max(p[-1] for p in vals)
     v = min(vals)
-    return count, v[1], (v[2], v[3]), None
+    return count, v[1], tuple(v[2:]), None
 
 
 def evaluate(tests: Iterable[TestSpec], samples: dict[str, Samples],

@@ -31,11 +31,11 @@ class CellPoints:
     """Quadrature points of a batch of cells, padded to ``nq`` per cell."""
 
     cells: IntArray      # (k,) local cell indices
-    xi: FloatArray       # (k, nq, 2) parent reference coordinates
-    x: FloatArray        # (k, nq, 2) physical coordinates, m
-    w: FloatArray        # (k, nq) weights, m^2 (0 on padding)
+    xi: FloatArray       # (k, nq, d) parent reference coordinates
+    x: FloatArray        # (k, nq, d) physical coordinates, m
+    w: FloatArray        # (k, nq) weights, m^d (0 on padding)
     side: IntArray | FloatArray     # (k, nq) -1 / +1 (0 on padding)
-    dNdx: FloatArray     # (k, nq, nn, 2) physical gradients of the parent's shape functions
+    dNdx: FloatArray     # (k, nq, nn, d) physical gradients of the parent's shape functions
     N: FloatArray        # (k, nq, nn) parent shape functions
 
     def take(self, rows: IntArray) -> CellPoints:
@@ -45,18 +45,18 @@ class CellPoints:
 
 def _parent_maps(el: Element, xc: FloatArray,
                  xi: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Physical points, gradients and det J of parents ``xc (k, nn, 2)`` at ``xi``.
+    """Physical points, gradients and det J of parents ``xc (k, nn, d)`` at ``xi``.
 
-    ``xi``: ``(k, nq, 2)`` per cell, or ``(nq, 2)`` the same for every cell (the
+    ``xi``: ``(k, nq, d)`` per cell, or ``(nq, d)`` the same for every cell (the
     shape functions are then evaluated once).
     """
     if xi.ndim == 2:
-        N0, dN0 = el.shape(xi), el.dshape(xi)                      # (nq, nn), (nq, nn, 2)
-        (nq, nn), k = N0.shape, len(xc)
-        x = np.matmul(N0, xc)                                       # (k, nq, 2)
+        N0, dN0 = el.shape(xi), el.dshape(xi)                      # (nq, nn), (nq, nn, d)
+        (nq, nn), k, d = N0.shape, len(xc), xc.shape[2]
+        x = np.matmul(N0, xc)                                       # (k, nq, d)
         # J[k, q, i, j] = sum_a xc[k, a, i] dN0[q, a, j], as one BLAS product
         J = xc.transpose(0, 2, 1).reshape(-1, nn) @ dN0.transpose(1, 0, 2).reshape(nn, -1)
-        J = J.reshape(k, 2, nq, 2).transpose(0, 2, 1, 3)
+        J = J.reshape(k, d, nq, d).transpose(0, 2, 1, 3)
         dNdx, det = physical_gradients(dN0, J)
         return np.broadcast_to(N0, (k,) + N0.shape), x, dNdx, det
     N = el.shape(xi)

@@ -45,6 +45,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from xfemcontact.errors import GeometryError
+from xfemcontact.fem.coordinates import coordinates
 from xfemcontact.fem.elements import Seg3
 from xfemcontact.mesh.plex import reduce_nodes
 
@@ -70,7 +71,7 @@ def nodal_values(mesh: LocalMesh, interface: Any, node_field: ArrayLike | None =
     here: the case package imports the contact laws, which use this room);
     ``node_field (n,)``: LN at the local nodes when it has no level-set formula."""
     if interface.level_set is not None:
-        phi = interface.level_set(x=mesh.x[:, 0], y=mesh.x[:, 1])
+        phi = interface.level_set(**coordinates(mesh.x))
     else:
         phi = np.asarray(node_field, dtype=float)
     return normalised(phi, mesh.comm.tompi4py() if mesh.comm.size > 1 else None)
