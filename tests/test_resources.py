@@ -116,3 +116,16 @@ def test_plots_are_written_with_and_without_the_helper(tmp_path, monkeypatch, sp
         assert (tmp_path / "out" / name).stat().st_size > 10_000
     steps = results(tmp_path / "out")["timing_steps"]
     assert any(k.startswith("plot_helper_cpu:") for k in steps) == spare
+
+
+def test_plot_helper_starts_before_the_solve_on_small_runs_only(monkeypatch):
+    """Below EARLY_PLOTS_MB of estimated peak the helper imports matplotlib during the
+    solve; above, it would hold its memory through the factorisation."""
+    from xfemcontact import run
+
+    monkeypatch.setattr(resources, "LAST", {})
+    assert not run._plots_early()                         # no estimate: as before
+    resources.check_cells("QUAD8", 160 ** 2, 1, "probe")  # about 430 MB
+    assert run._plots_early()
+    resources.check_cells("QUAD8", 320 ** 2, 1, "probe")  # about 1.4 GB
+    assert not run._plots_early()

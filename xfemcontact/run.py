@@ -65,6 +65,20 @@ def node_samples(model: Model, u: NDArray[np.float64]) -> testtable.Samples:
                              z=x[:, 2] if x.shape[1] == 3 else None)
 
 
+#: below this estimated peak per process (MB) the plot helper starts before the solve:
+#: its 45 MB do not matter there, and on small runs the 0.3 s it takes to import
+#: matplotlib are a large share of the output phase (see output/plotter.py)
+EARLY_PLOTS_MB = 1000.0
+
+
+def _plots_early() -> bool:
+    """Whether the plot helper should start before the solve (a small run)."""
+    from xfemcontact import resources
+
+    est = resources.summary()
+    return est is not None and float(est["estimate_mb"]) < EARLY_PLOTS_MB
+
+
 def cell_samples(model: Model, values: Iterable[PointValues]) -> testtable.Samples:
     """The stress components at the quadrature points of ``values`` (those of positive
     weight); empty on a process without cells (more processes than cells)."""
@@ -162,6 +176,8 @@ def run(case_path: str | os.PathLike[str], outdir: str | None = None, overwrite:
         if case.instants.given:
             assert checkpoints is not None           # made for a case with [instants]
             return _run_history(case, model, folder, checkpoints, outdir, pre, comm, quiet, t0)
+        if case.output.plots and _plots_early():
+            folder.start_plot_helper()       # matplotlib imported while the solve runs
         tic = time.perf_counter()
         reason = model.solve()
         seconds = time.perf_counter() - tic

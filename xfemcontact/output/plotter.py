@@ -8,9 +8,11 @@ interface table, and draws the plots that need only that table and the
 iteration record while the run builds the post-processing mesh and writes
 fields.xdmf; then the deformed mesh (as the image or polygons
 :func:`~xfemcontact.post.plots.deformed_data` reduced it to) and the statuses.
-The run waits for it before report.md (:meth:`PlotHelper.finish`).  It is not
-started earlier on purpose: during the factorisation it would hold about 45 MB
-(Python, NumPy, matplotlib) for nothing.
+The run waits for it before report.md (:meth:`PlotHelper.finish`).  On large runs
+it is not started earlier on purpose: during the factorisation it would hold about
+45 MB (Python, NumPy, matplotlib) for nothing; on runs estimated below
+:data:`xfemcontact.run.EARLY_PLOTS_MB` it starts before the solve, which hides the
+import of matplotlib.
 
 Whatever goes wrong with the helper (it could not start, died, reported an
 error), the plots it did not confirm are drawn by the run itself: the files are
