@@ -296,7 +296,8 @@ CONTACT = Table({
     "seuil_init": Key("float", "initial friction threshold in Pa, negative = compression"),
     "iter_cont_maxi": Key("int", "most contact status iterations", default=30, ge=1,
                           le=MAX_ITERATIONS),
-    "iter_frot_maxi": Key("int", "most friction threshold iterations", default=10, ge=1,
+    "iter_frot_maxi": Key("int", "most friction threshold iterations whose status loop ran to its end "
+                          "(at most as many cut ones come on top)", default=10, ge=1,
                           le=MAX_ITERATIONS),
     "resi_frot": Key("float", "friction threshold convergence tolerance", default=1e-4, gt=0),
     "ordre_int": Key("int", "Gauss points per interface segment (default: 4, code_aster's, "
