@@ -292,6 +292,10 @@ def cut_cells(el: Element, phi_cell: FloatArray, cells: IntArray | None = None
     """
     k = len(phi_cell)
     cells = np.arange(k) if cells is None else np.asarray(cells)
+    if k == 0:
+        return (SubTets(cells, np.zeros((0, 1, 10, 3)), np.zeros((0, 1), np.int64)),
+                Facets(cells, np.zeros((0, 1, 6, 3)), np.zeros((0, 1), bool)),
+                np.zeros(0, bool), np.zeros(0, np.int64))
     tets = parent_tets(el)                                     # (T, 4)
     T = len(tets)
     V = np.broadcast_to(el.ref_nodes[tets], (k, T, 4, 3))      # tetrahedron vertices, xi
