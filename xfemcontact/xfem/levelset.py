@@ -273,6 +273,10 @@ def _check_islands(mesh: LocalMesh, phi: FloatArray, side: IntArray) -> None:
     if wrong.any():
         c = unc[np.nonzero(wrong)[0][0]]
         ctr = mesh.x[mesh.cell_nodes[c]].mean(0)
+        if len(ctr) == 3:
+            raise GeometryError(f"level set: the interface makes a closed surface inside cell "
+                                f"{mesh.cell_ids[c]} near ({ctr[0]:.6g}, {ctr[1]:.6g}, {ctr[2]:.6g}), "
+                                f"or crosses one of its faces without crossing its edges: refine the mesh there")
         raise GeometryError(f"level set: the interface makes a closed curve inside cell "
                             f"{mesh.cell_ids[c]} near ({ctr[0]:.6g}, {ctr[1]:.6g}), smaller than "
                             f"the cell: refine the mesh there")

@@ -1,0 +1,105 @@
+"""Quadrature on the curved sub-tetrahedra and interface facets of cut 3-D cells.
+
+A sub-tetrahedron is the TETRA10 map ``zeta -> xi`` of its nodes in the parent's
+reference coordinates (:mod:`xfemcontact.xfem.cut3d`), composed with the parent's
+isoparametric map ``xi -> x``; a point's weight is the rule's weight times both
+Jacobian determinants (m^3).  Facets are TRIA6 maps ``eta -> xi`` composed the
+same way: the physical tangents are ``J_parent dxi/deta``, their cross product is
+the unit normal times the area element (m^2); the facets' node order makes it
+point from the - side (LN < 0) to the + side (LN > 0), the 2-D convention.
+
+Degrees: a sub-tetrahedron of a planar cut of an affine parent is straight, so a
+rule of degree p integrates every polynomial of degree p in x exactly on it;
+``SUBTET_DEGREE`` is the degree of an affine parent's stiffness integrand
+(TETRA10: 2, HEXA20 parallelepipeds: 6 = 2 x 3), which also covers the cubic
+Jacobian of a curved TETRA10 sub-cell.  Padding sub-cells and facets get zero
+weights (and a point inside the parent).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from xfemcontact.fem.elements import Element, determinants, inverses
+from xfemcontact.fem.quadrature import gauss_tetrahedron, gauss_triangle
+from xfemcontact.xfem.cut3d import TETRA10, TRIA6, Facets, SubTets, subtet_jacobians
+from xfemcontact.xfem.integration import CellPoints, _parent_maps
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+
+#: polynomial degree of the rule on each sub-tetrahedron (see the module documentation)
+SUBTET_DEGREE = {"TETRA10": 4, "HEXA20": 6}
+
+
+def subtet_points(el: Element, xc: FloatArray, sub: SubTets, degree: int | None = None) -> CellPoints:
+    """Quadrature of the sub-tetrahedra ``sub`` of cells with coordinates ``xc (k, nn, 3)``:
+    :class:`~xfemcontact.xfem.integration.CellPoints` with ``nq = ns x`` (rule size),
+    weights in m^3, the parent's shape functions and physical gradients at every point."""
+    zeta, wz = gauss_tetrahedron(SUBTET_DEGREE[el.name] if degree is None else degree)
+    k, ns = sub.side.shape
+    nq = len(wz)
+    live = np.repeat(sub.side != 0, nq, axis=1)                                  # (k, ns nq)
+    xi = np.einsum("qa,ksai->ksqi", TETRA10.shape(zeta), sub.nodes).reshape(k, ns * nq, 3)
+    xi[~live] = el.ref_nodes[: el.nv].mean(axis=0)
+    det_sub = subtet_jacobians(sub.nodes, zeta).reshape(k, ns * nq)
+    N, x, dNdx, det = _parent_maps(el, xc, xi)
+    w = np.tile(wz, ns)[None, :] * det_sub * det * live
+    return CellPoints(sub.cells, xi, x, w, np.repeat(sub.side, nq, axis=1), dNdx, N)
+
+
+def subtet_weights(el: Element, xc: FloatArray, sub: SubTets, degree: int = 3) -> tuple[FloatArray, IntArray]:
+    """Weights (m^3) and sides, each ``(k, ns x rule size)``, of the sub-tetrahedra ``sub``
+    without the shape functions: what volumes need.  The default degree 3 integrates a
+    curved sub-tetrahedron's volume exactly on an affine parent (its Jacobian is cubic)."""
+    zeta, wz = gauss_tetrahedron(degree)
+    k, ns = sub.side.shape
+    nq = len(wz)
+    xi = np.einsum("qa,ksai->ksqi", TETRA10.shape(zeta), sub.nodes).reshape(k, ns * nq, 3)
+    J = np.einsum("kai,kpaj->kpij", xc, el.dshape(xi))
+    det = determinants(J) * subtet_jacobians(sub.nodes, zeta).reshape(k, ns * nq)
+    side = np.repeat(sub.side, nq, axis=1)
+    return np.tile(wz, ns)[None, :] * det * (side != 0), side
+
+
+@dataclass
+class FacetPoints:
+    """Gauss points of the interface facets of cut cells, padded to ``nf x`` (rule size)."""
+
+    cells: IntArray      # (k,) local cell indices
+    xi: FloatArray       # (k, np, 3) parent reference coordinates
+    x: FloatArray        # (k, np, 3) physical points, m
+    w: FloatArray        # (k, np) area weights, m^2 (0 on padding)
+    normal: FloatArray   # (k, np, 3) unit normal from - to + (0 on padding)
+
+    def take(self, rows: IntArray) -> FacetPoints:
+        """The points of the cells at positions ``rows``."""
+        return FacetPoints(*(getattr(self, f.name)[rows] for f in fields(self)))
+
+
+def facet_points(el: Element, xc: FloatArray, phi_cell: FloatArray, fac: Facets, degree: int = 4) -> FacetPoints:
+    """Gauss points (a triangle rule exact to ``degree``) on the facets ``fac`` of cells
+    with coordinates ``xc (k, nn, 3)`` and LN node values ``phi_cell (k, nn)``."""
+    eta, we = gauss_triangle(degree)
+    k, nf = fac.live.shape
+    nq = len(we)
+    xi = np.einsum("qa,kfai->kfqi", TRIA6.shape(eta), fac.nodes)                # (k, nf, nq, 3)
+    T = np.einsum("qaj,kfai->kfqij", TRIA6.dshape(eta), fac.nodes)              # dxi/deta (.., 3, 2)
+    live = np.repeat(fac.live, nq, axis=1)
+    xi = xi.reshape(k, nf * nq, 3)
+    xi[~live] = el.ref_nodes[: el.nv].mean(axis=0)
+    dN = el.dshape(xi)                                                           # (k, p, nn, 3)
+    x = np.einsum("kpa,kai->kpi", el.shape(xi), xc)
+    J = np.einsum("kai,kpaj->kpij", xc, dN)                                      # dx/dxi
+    t = J @ T.reshape(k, nf * nq, 3, 2)                                          # physical tangents
+    area = np.cross(t[..., 0], t[..., 1])                                        # n_h dA_h / d(eta)
+    g = np.einsum("kpaj,kpji,ka->kpi", dN, inverses(J)[1], phi_cell)            # physical grad LN
+    gn = np.linalg.norm(g, axis=-1, keepdims=True)
+    n = np.where(gn > 0, g / np.where(gn > 0, gn, 1.0), 0.0)
+    w = np.tile(we, nf)[None, :] * np.einsum("kpi,kpi->kp", area, n) * live
+    return FacetPoints(fac.cells, xi, x, w, n * live[..., None])
