@@ -45,6 +45,32 @@ def test_estimate_in_3d_follows_the_bench():
     assert abs(tetra(20).factor_entries / 342121442 - 1) < 0.05
 
 
+@pytest.mark.parametrize("cell", ["HEXA20", "TETRA10"])
+def test_box_spec_counts_the_nodes_of_the_box(cell):
+    from xfemcontact.mesh.generate import box
+
+    class Spec:
+        rectangle = None
+        refine = 0
+        box = {"nx": 3, "ny": 4, "nz": 5, "cell": cell}
+    assert preflight.box_nodes(Spec) == len(box(3, 4, 5, cell=cell).points)
+    assert preflight.rectangle_cells(Spec) == (cell, 60 * (6 if cell == "TETRA10" else 1))
+
+
+def test_a_box_that_cannot_fit_is_refused_at_once(tmp_path):
+    """A 400 x 400 x 400 HEXA20 box (770 million dofs) stops with one line before the box
+    is generated."""
+    text = (CASES / "box_hexa20.toml").read_text().replace("nx = 4, ny = 4, nz = 8", "nx = 400, ny = 400, nz = 400")
+    assert "nx = 400" in text
+    case = write_case(tmp_path, text)
+    proc = run_cli(["run", case, "-o", tmp_path / "out"], timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "mesh.box: 64000000 HEXA20 cells" in lines[0]
+    assert "-xfc_memory_limit" in lines[0] and "Traceback" not in proc.stderr
+    assert not (tmp_path / "out").exists()
+
+
 def test_rectangle_spec_with_refinement():
     class Spec:
         rectangle = {"nx": 10, "ny": 20, "cell": "TRIA6"}
