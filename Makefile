@@ -34,14 +34,15 @@ STAMP_LINT := $(VENV)/.lint-installed
 CASE ?= cases/ssnv509a.toml
 OUT ?= out
 
-.PHONY: help setup run test test-fast lint bench bench-quick bench-large clean bytecode
+.PHONY: help setup run test test-fast lint bench bench-quick bench-large bench-3d clean bytecode
 
 help:
 	@echo "make run     solve $(CASE) and print its test table (output in $(OUT)/)"
 	@echo "make test    run the whole test suite (MPI tests included)"
 	@echo "make lint    pyflakes (package, tests, bench, cases) and mypy (package, mypy.ini)"
-	@echo "make bench   run the benchmark series (bench/): N = 20 ... 320 and QUAD8 640, 1000 (about 30 min)"
+	@echo "make bench   run the benchmark series (bench/): 2-D N = 20 ... 320 and QUAD8 640, 1000, then 3-D (about 45 min)"
 	@echo "make bench-quick   only N = 20 ... 320 (QUAD8, TRIA6, 1 and 2 processes; about 5 min)"
+	@echo "make bench-3d      only 3-D: HEXA20, TETRA10 N x N x N boxes, N = 8 ... 24, 1 and 2 processes (about 15 min, 7.5 GB)"
 	@echo "make setup   install Debian packages, .venv and the package only"
 
 setup: $(STAMP_PKG)
@@ -86,14 +87,22 @@ lint: $(STAMP_LINT)
 	$(PY) -m mypy
 
 # N = 20 ... 320, QUAD8 and TRIA6, 1 and 2 processes -> bench/results/series.{md,json,png};
-# QUAD8 640 and 1000 (2.5 and 6 million dofs), 1 and 2 processes -> bench/results/large.*
-bench: bench-quick bench-large
+# QUAD8 640 and 1000 (2.5 and 6 million dofs), 1 and 2 processes -> bench/results/large.*;
+# then the 3-D series (bench-3d)
+bench: bench-quick bench-large bench-3d
 
 bench-quick: bytecode
 	$(PY) bench/run_series.py
 
 bench-large: bytecode
 	$(PY) bench/run_series.py --cells QUAD8 --sizes 640 1000 --procs 1 2 --name large
+
+# the oedometer of cases/box_hexa20.toml on N x N x N HEXA20 and TETRA10 boxes, 1 and 2 processes:
+# N = 8 ... 20 three times each (medians) -> bench/results/series3d.*; N = 24 once
+# (up to 341 000 dofs, 7.5 GB) -> bench/results/series3d_large.*
+bench-3d: bytecode
+	$(PY) bench/run_series.py --cells HEXA20 TETRA10 --sizes 8 12 16 20 --procs 1 2 --repeat 3 --name series3d
+	$(PY) bench/run_series.py --cells HEXA20 TETRA10 --sizes 24 --procs 1 2 --name series3d_large
 
 clean:
 	rm -rf $(VENV) out build *.egg-info .pytest_cache .mypy_cache

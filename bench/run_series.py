@@ -1,6 +1,8 @@
-"""Benchmark series: SSNV509 geometry on N x N QUAD8 and TRIA6 meshes, 1 and 2 processes.
+"""Benchmark series: SSNV509 geometry on N x N QUAD8 and TRIA6 meshes, or the oedometer of
+cases/box_hexa20.toml on N x N x N HEXA20 and TETRA10 boxes; 1 and 2 processes.
 
     python bench/run_series.py                          # N = 20 ... 320, QUAD8 + TRIA6, 1 and 2 processes
+    python bench/run_series.py --cells HEXA20 TETRA10 --sizes 8 12 16 20 --name series3d   # 3-D
     python bench/run_series.py --sizes 320 --repeat 5   # 5 runs per point, interleaved
     python bench/run_series.py --cells QUAD8 --sizes 640 1000 --procs 1 2 --name large
     python bench/run_series.py --sizes 160 320 --repeat 3 --variant before=/tmp/base --name compare
@@ -8,7 +10,11 @@
 
 Each run is the command line on a generated case with the default outputs (fields,
 interface.csv, the four plots; ``--no-plots`` switches the plots off), so the
-figures are what a user gets.  With ``--repeat K`` every point is run K times, the
+figures are what a user gets.  2-D cells (QUAD8, TRIA6): the SSNV509 case of the
+cell type on an N x N rectangle of 10 m x 10 m.  3-D cells (HEXA20, TETRA10): the
+oedometer of cases/box_hexa20.toml (1 m x 1 m x 2 m block under a pressure on its
+top face, sides and bottom on rollers; no interface: X-FEM is 2-D only so far) on an
+N x N x N box: about 12 N^3 dofs on HEXA20, 24 N^3 on TETRA10.  With ``--repeat K`` every point is run K times, the
 process counts (and variants) taking turns (1, 2, 1, 2, ...) so that a slow spell
 of this shared machine hits all of them; each row is the run of median wall time,
 with the spread.
@@ -51,16 +57,32 @@ GETFEM = {("QUAD8", 20): (3128, 0.24, 69), ("QUAD8", 80): (41208, 3.9, 295), ("Q
 
 PHASES = ("mesh", "checks", "levelset", "layout", "assembly", "solve", "post", "output")
 
-#: the SSNV509 modelisation of each cell type (its test tolerances are those of that modelisation)
-BASE_CASE = {"QUAD8": "ssnv509a.toml", "TRIA6": "ssnv509b.toml"}
+#: the case of each cell type: 2-D, the SSNV509 modelisation of that cell type (its test
+#: tolerances are those of that modelisation); 3-D, the oedometer example (its closed
+#: form is linear in x, y, z: exact on both cell types)
+BASE_CASE = {"QUAD8": "ssnv509a.toml", "TRIA6": "ssnv509b.toml",
+             "HEXA20": "box_hexa20.toml", "TETRA10": "box_hexa20.toml"}
+CELLS_3D = ("HEXA20", "TETRA10")
+
+
+def mesh_line(cell, n):
+    """The generated mesh of size N: an N x N rectangle (2-D) or an N x N x N box with the
+    extents of the oedometer (3-D)."""
+    if cell in CELLS_3D:
+        return (f'box = {{ nx = {n}, ny = {n}, nz = {n}, x = [0.0, 1.0], y = [0.0, 1.0], z = [0.0, 2.0], '
+                f'cell = "{cell}" }}')
+    return f'rectangle = {{ nx = {n}, ny = {n}, x = [0.0, 10.0], y = [0.0, 10.0], cell = "{cell}" }}'
 
 
 def case_text(cell, n, plots=True):
-    base = (ROOT / "cases" / BASE_CASE[cell]).read_text()
+    """The base case of ``cell`` with its mesh line replaced by :func:`mesh_line`."""
+    name = BASE_CASE[cell]
+    base = (ROOT / "cases" / name).read_text()
+    if cell in CELLS_3D:                   # the base case's title names its own cell type
+        base = base.replace("HEXA20", cell)
     head, tail = base.split("[mesh]", 1)
     tail = tail.split("\n", 2)[2]          # drop the original mesh line
-    mesh = f'[mesh]\nrectangle = {{ nx = {n}, ny = {n}, x = [0.0, 10.0], y = [0.0, 10.0], cell = "{cell}" }}\n'
-    return head + mesh + tail + ("" if plots else "\n[output]\nplots = false\n")
+    return head + "[mesh]\n" + mesh_line(cell, n) + "\n" + tail + ("" if plots else "\n[output]\nplots = false\n")
 
 
 def run_one(cell, n, procs, args, workdir, source=None, variant=""):
@@ -172,8 +194,12 @@ def plot(rows, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(13, 5), sharey=True)
-    for ax, cell in zip(axes, ("QUAD8", "TRIA6")):
+    cells = list(dict.fromkeys(r["cell"] for r in rows)) or ["QUAD8"]
+    panels = [c for c in ("QUAD8", "TRIA6") if c in cells or not set(cells) & set(CELLS_3D)] + \
+        [c for c in CELLS_3D if c in cells]
+    fig, axes = plt.subplots(1, len(panels), figsize=(6.5 * len(panels), 5), sharey=True, squeeze=False)
+    axes = axes[0]
+    for ax, cell in zip(axes, panels):
         sel = [r for r in rows if r["cell"] == cell and r["procs"] == 1 and "error" not in r
                and not r.get("variant")]
         if not sel:
@@ -191,13 +217,14 @@ def plot(rows, path):
         }
         for name, ys in series.items():
             ax.loglog(dofs, [max(y, 1e-3) for y in ys], "o-" if name != "total wall" else "k--", label=name)
-        g = [(GETFEM[cell, n][0], GETFEM[cell, n][1]) for n in (20, 80, 320)]
-        ax.loglog(*zip(*g), "rs:", label="GetFEM 5.4 total")
+        g = [(GETFEM[cell, n][0], GETFEM[cell, n][1]) for n in (20, 80, 320) if (cell, n) in GETFEM]
+        if g:
+            ax.loglog(*zip(*g), "rs:", label="GetFEM 5.4 total")
         ax.set_xlabel("dofs")
-        ax.set_title(f"SSNV509 geometry, {cell}, 1 process")
+        ax.set_title(f"{'oedometer box' if cell in CELLS_3D else 'SSNV509 geometry'}, {cell}, 1 process")
         ax.grid(True, which="both", alpha=0.3)
     axes[0].set_ylabel("wall time (s)")
-    axes[1].legend(fontsize=8)
+    axes[-1].legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
 
@@ -205,7 +232,8 @@ def plot(rows, path):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--cells", nargs="+", default=["QUAD8", "TRIA6"])
-    ap.add_argument("--sizes", nargs="+", type=int, default=[20, 40, 80, 160, 320])
+    ap.add_argument("--sizes", nargs="+", type=int, default=None,
+                    help="N: cells per side (default 20 40 80 160 320; 3-D cells only: 8 12 16 20)")
     ap.add_argument("--procs", nargs="+", type=int, default=[1, 2])
     ap.add_argument("--name", default="series")
     ap.add_argument("--repeat", type=int, default=1, help="runs per point (median reported)")
@@ -215,6 +243,8 @@ def main():
     ap.add_argument("--timeout", type=float, default=3600.0, help="seconds per run")
     ap.add_argument("--extra", nargs=argparse.REMAINDER, default=[], help="PETSc options for every run")
     args = ap.parse_args()
+    if args.sizes is None:
+        args.sizes = [8, 12, 16, 20] if set(args.cells) <= set(CELLS_3D) else [20, 40, 80, 160, 320]
     variants = [("", None)] + [(v.split("=", 1)[0], pathlib.Path(v.split("=", 1)[1]).resolve()) for v in args.variant]
     OUT.mkdir(parents=True, exist_ok=True)
     work = OUT / "runs"

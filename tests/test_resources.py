@@ -28,6 +28,49 @@ def test_estimate_grows_with_the_mesh_and_splits_over_processes():
     assert 9364 < two.peak_mb < 1.1 * 9364
 
 
+def test_estimate_in_3d_follows_the_bench():
+    """The 3-D coefficients against the peaks of the 3-D bench (the oedometer on N x N x N
+    boxes; nodes as the DMPlex check counts them): within 10 %."""
+    def hexa(n):
+        return resources.estimate("HEXA20", n ** 3, nodes=(n + 1) ** 3 + 3 * n * (n + 1) ** 2)
+
+    def tetra(n, nprocs=1):
+        return resources.estimate("TETRA10", 6 * n ** 3, nprocs, nodes=(2 * n + 1) ** 3)
+
+    # HEXA20 N = 24, 32: 3585 and 10316 MB; TETRA10 N = 24: 7452 MB, 5250 MB per process on two
+    for est, peak in ((hexa(24), 3585), (hexa(32), 10316), (tetra(24), 7452), (tetra(24, 2), 5250)):
+        assert abs(est.peak_mb / peak - 1) < 0.1, (est, peak)
+    # MUMPS' factor entries: HEXA20 N = 32 992 million, TETRA10 N = 20 342 million
+    assert abs(hexa(32).factor_entries / 992191393 - 1) < 0.05
+    assert abs(tetra(20).factor_entries / 342121442 - 1) < 0.05
+
+
+@pytest.mark.parametrize("cell", ["HEXA20", "TETRA10"])
+def test_box_spec_counts_the_nodes_of_the_box(cell):
+    from xfemcontact.mesh.generate import box
+
+    class Spec:
+        rectangle = None
+        refine = 0
+        box = {"nx": 3, "ny": 4, "nz": 5, "cell": cell}
+    assert preflight.box_nodes(Spec) == len(box(3, 4, 5, cell=cell).points)
+    assert preflight.rectangle_cells(Spec) == (cell, 60 * (6 if cell == "TETRA10" else 1))
+
+
+def test_a_box_that_cannot_fit_is_refused_at_once(tmp_path):
+    """A 400 x 400 x 400 HEXA20 box (770 million dofs) stops with one line before the box
+    is generated."""
+    text = (CASES / "box_hexa20.toml").read_text().replace("nx = 4, ny = 4, nz = 8", "nx = 400, ny = 400, nz = 400")
+    assert "nx = 400" in text
+    case = write_case(tmp_path, text)
+    proc = run_cli(["run", case, "-o", tmp_path / "out"], timeout=60)
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ") and "mesh.box: 64000000 HEXA20 cells" in lines[0]
+    assert "-xfc_memory_limit" in lines[0] and "Traceback" not in proc.stderr
+    assert not (tmp_path / "out").exists()
+
+
 def test_rectangle_spec_with_refinement():
     class Spec:
         rectangle = {"nx": 10, "ny": 20, "cell": "TRIA6"}

@@ -10,9 +10,11 @@ the upper triangle of the matrix -> MUMPS factor entries (nested-dissection
 growth, about ``n log^1.5 n`` with PORD, the ordering Debian's MUMPS uses) -> peak
 resident memory of a process, each step with a coefficient fitted to the runs of
 ``bench/run_series.py`` (SSNV509 geometry, N = 160 .. 1000; see README,
-*Performance*).  It is meant to refuse what cannot fit before anything large is
-allocated, not to be exact: it is within about 10 % of the measured peaks of
-those runs, and the limit it is compared with keeps a margin.
+*Performance*; in 3-D the oedometer on N x N x N boxes, HEXA20 N = 16 .. 32 and
+TETRA10 N = 16 .. 24, ``make bench-3d``; see README, *3-D*).  It is meant to refuse
+what cannot fit before anything large is allocated, not to be exact: it is within
+about 10 % of the measured peaks of those runs, and the limit it is compared with
+keeps a margin.
 
 The limit is the memory this machine can give the run: the smallest of
 ``MemAvailable`` (/proc/meminfo), what the cgroup of the process still allows
@@ -41,6 +43,8 @@ if TYPE_CHECKING:
 #: N^2 cells, TRIA6 4 N^2 + 4 N + 1 for 2 N^2; N^3 boxes: HEXA20 about 4 N^3 nodes for
 #: N^3 cells, TETRA10 8 N^3 for 6 N^3)
 NODES_PER_CELL = {"QUAD8": 3.0, "TRIA6": 2.0, "HEXA20": 4.0, "TETRA10": 1.33}
+#: the 3-D cell types (coefficients of their own below)
+CELLS_3D = ("HEXA20", "TETRA10")
 #: displacement dofs per node
 DOFS_PER_NODE = {"QUAD8": 2, "TRIA6": 2, "HEXA20": 3, "TETRA10": 3}
 #: nonzeros of the matrix's upper triangle per dof (2-D: measured at N = 320, bench;
@@ -48,10 +52,12 @@ DOFS_PER_NODE = {"QUAD8": 2, "TRIA6": 2, "HEXA20": 3, "TETRA10": 3}
 NNZ_PER_DOF = {"QUAD8": 13.1, "TRIA6": 12.2, "HEXA20": 78.4, "TETRA10": 39.2}
 #: MUMPS factor entries (INFOG(29)) at a reference size and their growth with the dofs
 #: (fitted to N = 160 .. 640: ``F = F_ref (n / n_ref) ** FACTOR_EXPONENT``, about n log^1.5 n
-#: in 2-D; about n^(4/3) in 3-D: HEXA20 boxes N = 16 and 24 give 1.35, used for both)
+#: in 2-D; about n^(4/3) in 3-D: HEXA20 boxes N = 16 .. 32 give 1.35 (N = 32 predicted from
+#: N = 16 within 1 %), TETRA10 boxes N = 16 .. 24 1.45 (least squares 1.53, N = 20 -> 24
+#: 1.40), referred to N = 24)
 FACTOR_REFERENCE = {"QUAD8": (2469238, 412824463), "TRIA6": (3288532, 471584508),
-                    "HEXA20": (56355, 64961777), "TETRA10": (46875, 34369350)}
-FACTOR_EXPONENT = {"QUAD8": 1.115, "TRIA6": 1.11, "HEXA20": 1.35, "TETRA10": 1.35}
+                    "HEXA20": (56355, 64961777), "TETRA10": (352947, 723505475)}
+FACTOR_EXPONENT = {"QUAD8": 1.115, "TRIA6": 1.11, "HEXA20": 1.35, "TETRA10": 1.45}
 #: peak resident MB of one process: BASE + PER_DOF x dofs + PER_ENTRY x factor entries
 #: (the interpreter and libraries; the matrix, mesh, dof layout and vectors; MUMPS'
 #: factors, 8 bytes an entry, with its work space and copy of the matrix), fitted to
@@ -59,10 +65,17 @@ FACTOR_EXPONENT = {"QUAD8": 1.115, "TRIA6": 1.11, "HEXA20": 1.35, "TETRA10": 1.3
 BASE_MB = 100.0
 PER_DOF_MB = 300e-6
 PER_ENTRY_MB = 12.6e-6
+#: the same in 3-D (HEXA20, TETRA10): MUMPS needs less beside its factors per entry
+#: (measured 10.0 - 10.8 x 1e-6 MB at HEXA20 N = 20 .. 32 and TETRA10 N = 20, 24)
+PER_ENTRY_MB_3D = 10.3e-6
 #: on P processes the distributed part per process is (1 / P) x this imbalance
 #: (measured 1.18 - 1.29 on 2 processes at N = 320 .. 1000), plus the input mesh
 #: that rank 0 holds alone while it is distributed
 IMBALANCE = 1.2
+#: the same in 3-D: MUMPS' factors grow by a quarter on 2 processes, and the
+#: larger process holds more (measured 1.34 - 1.41 at HEXA20 N = 24, 32 and TETRA10
+#: N = 20, 24; 1.55 - 1.6 at N = 16, 20, where the memory is smaller)
+IMBALANCE_3D = 1.4
 #: the virtual size of a process exceeds its resident peak by about this (MUMPS'
 #: relaxed work space, shared libraries)
 VIRTUAL_EXTRA_MB = 700.0
@@ -99,13 +112,14 @@ def estimate(cell_type: str, cells: int, nprocs: int = 1, nodes: int | None = No
     nnz = int(NNZ_PER_DOF[cell_type] * dofs)
     n_ref, f_ref = FACTOR_REFERENCE[cell_type]
     factor = int(f_ref * (dofs / n_ref) ** FACTOR_EXPONENT[cell_type])
-    shared = PER_DOF_MB * dofs + PER_ENTRY_MB * factor
+    three_d = cell_type in CELLS_3D
+    shared = PER_DOF_MB * dofs + (PER_ENTRY_MB_3D if three_d else PER_ENTRY_MB) * factor
     mesh_mb = 60e-6 * cells                       # the input mesh, rank 0 only, while it is distributed
     if nprocs <= 1:
         peak = BASE_MB + shared
         total = peak
     else:
-        per = BASE_MB + IMBALANCE * shared / nprocs
+        per = BASE_MB + (IMBALANCE_3D if three_d else IMBALANCE) * shared / nprocs
         peak = per + mesh_mb
         total = per * nprocs + mesh_mb
     return Estimate(cell_type, int(cells), nodes, dofs, nnz, factor, int(nprocs), peak, total)
