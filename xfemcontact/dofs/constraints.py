@@ -47,7 +47,7 @@ def fixed_components(mesh: LocalMesh, case: Case, geo: Geometry | None, law: Int
     fixed = np.zeros((n, 2 * d), dtype=bool)
     values = np.zeros((n, d))
     for bc in case.dirichlet:
-        nodes = np.unique(np.concatenate([mesh.group_nodes(g) for g in bc.groups]))
+        nodes = _group_nodes_everywhere(mesh, bc.groups)
         hnodes = _heaviside_nodes(mesh, geo, bc.groups) if geo is not None else np.zeros(0, int)
         for c, comp in enumerate(("DX", "DY", "DZ")[:d]):
             if comp in bc.components:
@@ -59,6 +59,19 @@ def fixed_components(mesh: LocalMesh, case: Case, geo: Geometry | None, law: Int
         if law is not None and law.zero_jump:
             fixed[:, d:] |= geo.enriched[:, None]
     return fixed, values
+
+
+def _group_nodes_everywhere(mesh: LocalMesh, groups: Iterable[str]) -> IntArray:
+    """Local nodes of ``groups`` as every process holding them sees them.  A process can
+    hold a node of a group without the face or edge that puts it there (a cell touching
+    the boundary face by an edge only, in 3-D): the flags are combined over the
+    processes, or a process would leave its copy of that node free."""
+    flag = np.zeros(len(mesh.x), dtype=np.int64)
+    for g in groups:
+        flag[mesh.group_nodes(g)] = 1
+    if mesh.comm.size > 1:
+        flag = np.asarray(reduce_nodes(mesh, flag, "max"))
+    return np.nonzero(flag)[0].astype(np.int64)
 
 
 def _heaviside_nodes(mesh: LocalMesh, geo: Geometry, groups: Iterable[str]) -> IntArray:
