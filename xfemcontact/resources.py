@@ -223,7 +223,7 @@ def check_cells(cell_type: str, cells: int, nprocs: int, where: str, nodes: int 
     too_big = None
     if total is not None and est.total_mb > MARGIN * total:
         too_big = (f"{_gb(est.total_mb)} on {nprocs} process{'es' if nprocs > 1 else ''}, "
-                   f"{_gb(total)} available ({why})")
+                   f"{_gb(total)} available ({why}), of which a run may use {MARGIN:.0%}")
     elif per_process is not None and est.peak_mb + VIRTUAL_EXTRA_MB > per_process:
         too_big = (f"{_gb(est.peak_mb + VIRTUAL_EXTRA_MB)} of address space per process, "
                    f"ulimit -v allows {_gb(per_process)}")
