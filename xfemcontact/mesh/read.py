@@ -49,7 +49,7 @@ import contextlib
 import importlib
 import os
 import re
-from typing import TYPE_CHECKING, Any, Collection, Iterator, NoReturn, Sequence
+from typing import TYPE_CHECKING, Any, Collection, Iterator, Mapping, NoReturn, Sequence
 
 import numpy as np
 
@@ -551,17 +551,10 @@ def _solid_type(blocks: Sequence[Block], solid: set[str], plane: set[str], sourc
     """The one supported 3-D meshio type of ``blocks`` (``solid``: its 3-D types, ``plane``
     its 2-D ones, which must be that cell's faces), or MeshError with hints."""
     if len(solid) > 1 or not solid <= set(SOLID_NAMES):
-        hints = []
-        if solid & {"tetra", "hexahedron"}:
-            hints.append(_LINEAR_HINT)
+        hints = [_LINEAR_HINT] if solid & {"tetra", "hexahedron"} else []
         if "hexahedron27" in solid:
             hints.append(_HEXA27_HINT)
-        if len(solid) > 1:
-            hints.append("one cell type per mesh")
-        supported = ", ".join(f"{k} ({v})" for k, v in SOLID_NAMES.items())
-        raise MeshError(f"{source}: unsupported 3-D cells {_census(blocks, solid)} "
-                        f"(supported: exactly one of {supported})"
-                        + "".join(f"; {h}" for h in hints))
+        _unsupported(blocks, solid, SOLID_NAMES, "3-D", hints, source)
     cell = next(iter(solid))
     faces = plane - {FACE_TYPES[cell]}
     if faces:
@@ -576,15 +569,20 @@ def _solid_type(blocks: Sequence[Block], solid: set[str], plane: set[str], sourc
 
 def _unsupported_plane(blocks: Sequence[Block], plane: set[str], source: str) -> NoReturn:
     """MeshError listing the 2-D cells found, what is supported and a hint."""
-    hints = []
-    if plane & {"triangle", "quad"}:
-        hints.append(_LINEAR_HINT)
+    hints = [_LINEAR_HINT] if plane & {"triangle", "quad"} else []
     if "quad9" in plane:
         hints.append(_QUAD9_HINT)
-    if len(plane) > 1:
-        hints.append("one cell type per mesh")
-    supported = ", ".join(f"{k} ({v})" for k, v in CELL_NAMES.items())
-    raise MeshError(f"{source}: unsupported 2-D cells {_census(blocks, plane)} "
+    _unsupported(blocks, plane, CELL_NAMES, "2-D", hints, source)
+
+
+def _unsupported(blocks: Sequence[Block], found: set[str], names: Mapping[str, str], dim: str,
+                 hints: list[str], source: str) -> NoReturn:
+    """MeshError listing the ``dim`` cells ``found``, the supported ``names`` (meshio ->
+    code_aster) and the ``hints``."""
+    if len(found) > 1:
+        hints = hints + ["one cell type per mesh"]
+    supported = ", ".join(f"{k} ({v})" for k, v in names.items())
+    raise MeshError(f"{source}: unsupported {dim} cells {_census(blocks, found)} "
                     f"(supported: exactly one of {supported})"
                     + "".join(f"; {h}" for h in hints))
 
