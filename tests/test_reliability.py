@@ -535,8 +535,13 @@ def test_under_resolved_level_set_refused(tmp_path):
 
 
 def test_under_resolved_level_set_accepted_with_warnings(tmp_path):
+    """Accepted with max_offset, the run says how far off the interface is.  Law bonded:
+    contact with friction on sin(20 x) across 10 cells (one crossing pushed 1.2 h off) does
+    not converge (exit 3) -- before the friction statuses judged on the trial traction it
+    ended with exit 0 only by forcing convergence twice (CONTACT3_86) after 1 Newton
+    iteration."""
     case = write_case(tmp_path, edited(CONTACT, *SIN, ('law = "contact"',
-                                                        'law = "contact"\nmax_offset = 5.0')))
+                                                        'law = "bonded"\nmax_offset = 5.0')))
     out = tmp_path / "out"
     proc = run_cli(["run", case, "-o", out], timeout=TIMEOUT)
     assert proc.returncode == 0, proc.stdout + proc.stderr

@@ -45,8 +45,8 @@ direction sticks instead of reversing at once.  (The direct reversal of the
 plain augmented test is what makes full-step Newton cycle on friction; the
 trial traction, instead of the dof's traction alone, is what lets a dof that has
 started slipping within an iteration, or one whose bound has grown, settle in
-one Newton step: measured on the sliding campaign, 82 -> 32 and 120 -> 53 Newton
-iterations on the curved cases, 74 -> 37 at the Coulomb limit.)  At a converged
+one Newton step: measured on the sliding campaign, 82 -> 41, 120 -> 52 and
+121 -> 61 Newton iterations on the curved cases, 74 -> 37 at the Coulomb limit.)  At a converged
 state the slipping dofs hold T_a = mu |s_a| p exactly and slip in the direction
 p, the sticking ones hold |T_a| <= mu |s_a| and gt_a = 0: r only decides the path.
 
