@@ -19,6 +19,15 @@ already sends the interface through a vertex when it passes within 1e-6 h of
 it, so only supports thinner than that (ratios below about 1e-12) are dropped;
 MUMPS' own scaling copes with the remaining small ratios (the condition
 estimates in the tests show it).
+
+One code for both dimensions: only the cutting differs.  In 2-D the cut cells
+are cut by :mod:`xfemcontact.xfem.cut` into curved sub-triangles and interface
+segments; in 3-D by :mod:`xfemcontact.xfem.geometry3d` (readjustment, then
+:mod:`xfemcontact.xfem.cut3d`) into curved sub-tetrahedra and interface facets.
+The sides, the enrichment and conditioning rules and the quadrature of cut
+cells (:func:`cell_points`, a :class:`~xfemcontact.xfem.integration.CellPoints`
+in both dimensions) read the dimension from the mesh.  In 3-D the 2-D segment
+fields are empty and ``facets`` / ``face_facets`` hold the interface.
 """
 from __future__ import annotations
 
@@ -28,7 +37,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from xfemcontact.mesh.plex import reduce_nodes
-from xfemcontact.xfem import cut, integration, levelset
+from xfemcontact.xfem import cut, cut3d, geometry3d, integration, integration3d, levelset
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
@@ -52,11 +61,17 @@ class Geometry:
     node_side: IntArray                 # (n,) H(x_j): +1 if LN >= 0 else -1
     cut_segments: cut.Segments          # of cut cells
     edge_segments: cut.Segments         # lying on cell edges
-    subcells: cut.SubCells              # of cut cells
-    enriched: BoolArray                 # (n,) bool, carries H1X, H1Y
+    subcells: cut.SubCells | cut3d.SubTets    # of cut cells: sub-triangles (2-D), sub-tetrahedra (3-D)
+    enriched: BoolArray                 # (n,) bool, carries H1X, H1Y, [H1Z]
     ratio: FloatArray                   # (n,) support ratio r_j (1 for non-enriched nodes)
     dropped: int                        # nodes whose Heaviside dofs the conditioning rule removed
     cut_points: integration.CellPoints | None = field(default=None, repr=False)  # of cut cells, cached
+    facets: cut3d.Facets | None = None        # 3-D: interface facets of cut cells
+    face_facets: cut3d.Facets | None = None   # 3-D: cell faces lying on the interface
+
+    @property
+    def dim(self) -> int:
+        return int(self.subcells.nodes.shape[-1])
 
     @property
     def cut_cells(self) -> IntArray:
@@ -81,19 +96,33 @@ class Geometry:
 
 
 def build(mesh: LocalMesh, phi: FloatArray) -> Geometry:
-    """Readjust LN, classify and cut the cells, select the enriched nodes."""
-    phi, info, side, segs, subs = _cut(mesh, phi)
-    esegs = cut.edge_segments(mesh, phi, side)
+    """Readjust LN, classify and cut the cells, select the enriched nodes (2-D and 3-D;
+    only the cutting differs, see the module documentation)."""
+    facets: tuple[cut3d.Facets | None, cut3d.Facets | None] = (None, None)
+    subs: cut.SubCells | cut3d.SubTets
+    if mesh.dim == 3:
+        g3 = geometry3d.build(mesh, phi)
+        phi, info, side, subs = g3.phi, g3.readjustment, g3.cell_side, g3.subtets
+        segs = esegs = _no_segments()
+        facets = (g3.facets, g3.face_facets)
+    else:
+        phi, info, side, segs, subs = _cut(mesh, phi)
+        esegs = cut.edge_segments(mesh, phi, side)
     node_side = np.where(phi >= 0, 1, -1)
     enriched = _opposite_in_support(mesh, side, node_side)
     geo = Geometry(phi, info, side, node_side, segs, esegs, subs, enriched,
-                   np.ones(len(phi)), 0)
+                   np.ones(len(phi)), 0, None, *facets)
     ratio = support_ratio(mesh, geo)
     drop = enriched & (ratio < DROP_RATIO)
     geo.ratio = ratio
     geo.enriched = enriched & ~drop
     geo.dropped = int((drop & mesh.node_owned).sum())
     return geo
+
+
+def _no_segments() -> cut.Segments:
+    """No interface segments (3-D: the interface is made of facets)."""
+    return cut.Segments(np.zeros(0, np.int64), np.zeros((0, 3, 2)), np.zeros((0, 2), np.int64))
 
 
 def _cut(mesh: LocalMesh, phi_in: FloatArray) -> tuple[FloatArray, levelset.Readjustment, IntArray,
@@ -150,8 +179,11 @@ def _cut_points(mesh: LocalMesh, geo: Geometry) -> integration.CellPoints:
     support ratios and post-processing all integrate over the same sub-cells)."""
     if geo.cut_points is None:
         sub = geo.subcells
-        geo.cut_points = integration.subcell_points(mesh.element, mesh.x[mesh.cell_nodes[sub.cells]], sub,
-                                                    mesh.cell_ids[sub.cells])
+        xc = mesh.x[mesh.cell_nodes[sub.cells]]
+        if isinstance(sub, cut3d.SubTets):
+            geo.cut_points = integration3d.subtet_points(mesh.element, xc, sub)
+        else:
+            geo.cut_points = integration.subcell_points(mesh.element, xc, sub, mesh.cell_ids[sub.cells])
     return geo.cut_points
 
 

@@ -103,3 +103,50 @@ def facet_points(el: Element, xc: FloatArray, phi_cell: FloatArray, fac: Facets,
     n = np.where(gn > 0, g / np.where(gn > 0, gn, 1.0), 0.0)
     w = np.tile(we, nf)[None, :] * np.einsum("kpi,kpi->kp", area, n) * live
     return FacetPoints(fac.cells, xi, x, w, n * live[..., None])
+
+
+#: a sub-tetrahedron face lies on a face of its parent when its nodes are this close
+#: to the face's plane in reference coordinates (the cutting keeps them on it exactly,
+#: up to round-off)
+ON_FACE = 1e-10
+
+
+def cut_face_points(el: Element, xc: FloatArray, sub: SubTets, local_face: IntArray,
+                    degree: int = 5) -> tuple[FacetPoints, IntArray]:
+    """Gauss points on the face ``local_face (k,)`` of cut cells ``xc (k, nn, 3)`` with
+    sub-tetrahedra ``sub`` (one row per face: a cell with two loaded faces comes twice),
+    integrated on each side separately.
+
+    The sub-tetrahedra tile the parent, so their faces lying in the plane of the
+    parent face (in reference coordinates, to :data:`ON_FACE`) tile that face, each
+    on the side of its sub-tetrahedron.  Each such TRIA6 face is mapped like an
+    interface facet (``eta -> xi -> x``, a triangle rule exact to ``degree``).
+    Returns the points (weights in m^2, ``normal`` the parent's outward unit normal,
+    zero weight on padding and on the faces of sub-tetrahedra off the face) and their
+    sides ``(k, p)`` (-1 / +1, 0 on padding).
+    """
+    k, ns = sub.side.shape
+    ref = el.ref_nodes[el.faces[local_face, :3]]                                   # (k, 3, 3)
+    n_ref = np.cross(ref[:, 1] - ref[:, 0], ref[:, 2] - ref[:, 0])                 # outward in xi
+    n_ref /= np.linalg.norm(n_ref, axis=1, keepdims=True)
+    F = sub.nodes[:, :, TETRA10.faces]                                             # (k, ns, 4, 6, 3)
+    dist = np.einsum("ksfai,ki->ksfa", F - ref[:, None, None, :1], n_ref)
+    on = (np.abs(dist) <= ON_FACE).all(axis=-1) & (sub.side != 0)[..., None]      # (k, ns, 4)
+    F = F.reshape(k, ns * 4, 6, 3)
+    on = on.reshape(k, ns * 4)
+    side = np.repeat(sub.side, 4, axis=1)
+    eta, we = gauss_triangle(degree)
+    nq = len(we)
+    xi = np.einsum("qa,kfai->kfqi", TRIA6.shape(eta), F).reshape(k, -1, 3)
+    T = np.einsum("qaj,kfai->kfqij", TRIA6.dshape(eta), F).reshape(k, -1, 3, 2)   # dxi/deta
+    live = np.repeat(on, nq, axis=1)
+    xi[~live] = el.ref_nodes[: el.nv].mean(axis=0)
+    J = np.einsum("kai,kpaj->kpij", xc, el.dshape(xi))
+    t = J @ T
+    area = np.linalg.norm(np.cross(t[..., 0], t[..., 1]), axis=-1)               # m^2 per d(eta)
+    m = np.einsum("kpji,kj->kpi", inverses(J)[1], n_ref)                           # J^-T n_ref: outward
+    n = m / np.linalg.norm(m, axis=-1, keepdims=True)
+    x = np.einsum("kpa,kai->kpi", el.shape(xi), xc)
+    w = np.tile(we, ns * 4)[None, :] * area * live
+    pts = FacetPoints(sub.cells, xi, x, w, n * live[..., None])
+    return pts, np.repeat(side, nq, axis=1) * live
