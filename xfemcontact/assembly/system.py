@@ -67,11 +67,12 @@ def assemble_bulk(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, D: F
     if geo is None:
         return
     C = elasticity.tensor(D)
-    for pts in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
-        batch = bulk.enriched_batch(mesh, layout, pts.cells)
-        K = elasticity.stiffness(enriched_gradients(mesh, geo, pts), pts.w, C)
-        bulk.add_matrices(A, batch, K)
-        bulk.add_lift(r_local, batch, K, x_bc)
+    for group in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
+        for pts in xgeo.chunks(group):
+            batch = bulk.enriched_batch(mesh, layout, pts.cells)
+            K = elasticity.stiffness(enriched_gradients(mesh, geo, pts), pts.w, C)
+            bulk.add_matrices(A, batch, K)
+            bulk.add_lift(r_local, batch, K, x_bc)
 
 
 def add_body_forces(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, body: BodyForce,
@@ -88,11 +89,13 @@ def add_body_forces(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, bo
         np.add.at(f_local, bulk.plain_batch(mesh, layout, cells).local, fe.reshape(len(cells), fe.shape[1] * fe.shape[2]))
     if geo is None:
         return
-    for pts in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
-        psi = heaviside_weights(mesh, geo, pts)
-        vals = np.concatenate([pts.N, psi * pts.N], axis=2)
-        fe = loads.body_forces(vals, pts.w, pts.x, body)
-        np.add.at(f_local, bulk.enriched_batch(mesh, layout, pts.cells).local, fe.reshape(len(pts.cells), fe.shape[1] * fe.shape[2]))
+    for group in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
+        for pts in xgeo.chunks(group):
+            psi = heaviside_weights(mesh, geo, pts)
+            vals = np.concatenate([pts.N, psi * pts.N], axis=2)
+            fe = loads.body_forces(vals, pts.w, pts.x, body)
+            np.add.at(f_local, bulk.enriched_batch(mesh, layout, pts.cells).local,
+                      fe.reshape(len(pts.cells), fe.shape[1] * fe.shape[2]))
 
 
 def add_tractions(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, traction: Iterable[Traction],
@@ -134,10 +137,12 @@ def add_face_tractions(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout,
         np.add.at(f_local, bulk._blocked(layout.u_local, nodes), fe.reshape(len(nodes), -1))
         return
     cut = geo.cell_side[cell] == 0
-    fe = loads.face_forces(mesh.x[nodes[~cut]], mesh.element.face_type, spec)  # (k, 3, nf)
-    psi = (geo.cell_side[cell[~cut], None] - geo.node_side[nodes[~cut]]) * geo.enriched[nodes[~cut]]
-    fe = np.concatenate([fe, fe * psi[:, None, :]], axis=2)                     # (k, 3, 2 nf)
-    np.add.at(f_local, bulk.enriched_dofs(layout, nodes[~cut]), fe.reshape(len(fe), -1))
+    whole, wcell = nodes[~cut], cell[~cut]
+    if len(whole):
+        fe = loads.face_forces(mesh.x[whole], mesh.element.face_type, spec)     # (k, 3, nf)
+        psi = (geo.cell_side[wcell, None] - geo.node_side[whole]) * geo.enriched[whole]
+        fe = np.concatenate([fe, fe * psi[:, None, :]], axis=2)                 # (k, 3, 2 nf)
+        np.add.at(f_local, bulk.enriched_dofs(layout, whole), fe.reshape(len(fe), -1))
     if cut.any():
         sub = geo.subcells
         assert isinstance(sub, cut3d.SubTets)                                   # 3-D cut cells

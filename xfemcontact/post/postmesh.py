@@ -51,6 +51,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike, NDArray
 
     from xfemcontact.model import Model
+    from xfemcontact.xfem.integration import CellPoints
 
     FloatArray = NDArray[np.float64]
     IntArray = NDArray[np.int64]
@@ -176,19 +177,27 @@ def _pieces(model: Model, xl: FloatArray) -> Columns:
 def _subcell_pieces(model: Model, xl: FloatArray) -> Columns:
     """Sub-triangles (3-D: sub-tetrahedra) of the cut cells with their mean stresses and
     strains."""
+    mesh, geo = model.mesh, model.geo
+    assert geo is not None                     # cut cells: an interface
+    parts = [_subcell_group(model, xl, pts) for pts in xgeo.cell_points(mesh, geo, geo.subcells.cells)]
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def _subcell_group(model: Model, xl: FloatArray, pts: CellPoints) -> Columns:
+    """:func:`_subcell_pieces` of the cut cells of one group of quadrature points ``pts``
+    (:func:`xfemcontact.xfem.geometry.cell_points`)."""
     mesh, geo, layout = model.mesh, model.geo, model.layout
     assert geo is not None                     # cut cells: an interface
     el = mesh.element
-    sub = geo.subcells
-    k, ns, nsn = sub.side.shape + sub.nodes.shape[2:3]
+    rows = np.searchsorted(geo.subcells.cells, pts.cells)
+    nodes, sides = geo.subcells.nodes[rows], geo.subcells.side[rows]        # (k, ns, nsn, d), (k, ns)
+    k, ns, nsn = nodes.shape[:3]
     nv = 3 * el.dim - 3
-    live = sub.side != 0                                                      # (k, ns)
-    cells = np.repeat(sub.cells, ns)[live.ravel()]
-    xi = sub.nodes[live]                                                      # (m, nsn, d)
-    side = sub.side[live]
-    xc = mesh.x[mesh.cell_nodes[cells]]
-    x = el.map_points(xc, xi)
-    pts, = xgeo.cell_points(mesh, geo, sub.cells)                            # cut cells only: one batch
+    live = sides != 0                                                         # (k, ns)
+    cells = np.repeat(pts.cells, ns)[live.ravel()]
+    xi = nodes[live]                                                          # (m, nsn, d)
+    side = sides[live]
+    x = el.map_points(mesh.x[mesh.cell_nodes[cells]], xi)
     ue = xl[bulk.enriched_batch(mesh, layout, pts.cells).local]
     e = elasticity.strain(enriched_gradients(mesh, geo, pts), ue)             # (k, ns nq, nv)
     w = pts.w.reshape(k, ns, -1)                                              # sub-cell major

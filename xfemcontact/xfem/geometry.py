@@ -32,7 +32,7 @@ fields are empty and ``facets`` / ``face_facets`` hold the interface.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
 
@@ -65,7 +65,7 @@ class Geometry:
     enriched: BoolArray                 # (n,) bool, carries H1X, H1Y, [H1Z]
     ratio: FloatArray                   # (n,) support ratio r_j (1 for non-enriched nodes)
     dropped: int                        # nodes whose Heaviside dofs the conditioning rule removed
-    cut_points: integration.CellPoints | None = field(default=None, repr=False)  # of cut cells, cached
+    cut_points: list[integration.CellPoints] | None = field(default=None, repr=False)  # of cut cells, cached
     facets: cut3d.Facets | None = None        # 3-D: interface facets of cut cells
     face_facets: cut3d.Facets | None = None   # 3-D: cell faces lying on the interface
 
@@ -160,30 +160,64 @@ def _opposite_in_support(mesh: LocalMesh, side: IntArray, node_side: IntArray) -
 def cell_points(mesh: LocalMesh, geo: Geometry, cells: IntArray) -> list[integration.CellPoints]:
     """Quadrature of ``cells``: sub-cells for cut ones, the standard rule otherwise.
 
-    Returns a list of :class:`integration.CellPoints` (cut cells, uncut cells).
+    Returns a list of :class:`integration.CellPoints` (cut cells, by groups of one
+    rule size -- in 3-D the cells with straight sub-tetrahedra, then those with curved
+    ones, see :func:`_cut_points` --, then uncut cells).
     """
     el = mesh.element
     cut_mask = geo.cell_side[cells] == 0
     out = []
     cc = cells[cut_mask]
     if len(cc):
-        out.append(_cut_points(mesh, geo).take(np.searchsorted(geo.subcells.cells, cc)))
+        for group in _cut_points(mesh, geo):
+            mine = cc[np.isin(cc, group.cells)]
+            if len(mine):
+                out.append(group.take(np.searchsorted(group.cells, mine)))
     uc = cells[~cut_mask]
     if len(uc):
         out.append(integration.cell_points(el, mesh.x[mesh.cell_nodes[uc]], uc, geo.cell_side[uc]))
     return out
 
 
-def _cut_points(mesh: LocalMesh, geo: Geometry) -> integration.CellPoints:
+#: quadrature points of enriched cells handled at once by :func:`chunks`
+POINTS_CHUNK = 1 << 17
+
+
+def chunks(pts: integration.CellPoints, points: int = POINTS_CHUNK) -> Iterator[integration.CellPoints]:
+    """``pts`` by batches of whole cells with at most ``points`` quadrature points (at least
+    one cell): element matrices of cut 3-D cells (thousands of points each) then exist
+    for one batch at a time.  ``pts`` itself when it fits."""
+    per = max(1, points // max(1, pts.w.shape[1]))
+    if len(pts.cells) <= per:
+        yield pts
+        return
+    for s in range(0, len(pts.cells), per):
+        yield pts.take(np.arange(s, min(s + per, len(pts.cells))))
+
+
+def _cut_points(mesh: LocalMesh, geo: Geometry) -> list[integration.CellPoints]:
     """Sub-cell quadrature of all cut cells, computed once per geometry (assembly,
-    support ratios and post-processing all integrate over the same sub-cells)."""
+    support ratios and post-processing all integrate over the same sub-cells).
+
+    2-D: one group.  3-D: the cells whose sub-tetrahedra are all straight (a planar cut
+    of an affine parent) with the rule of ``integration3d.SUBTET_DEGREE``, then the
+    others with ``integration3d.CURVED_SUBTET_DEGREE`` (the patch test on curved
+    sub-cells); each group's cells in increasing order."""
     if geo.cut_points is None:
         sub = geo.subcells
         xc = mesh.x[mesh.cell_nodes[sub.cells]]
         if isinstance(sub, cut3d.SubTets):
-            geo.cut_points = integration3d.subtet_points(mesh.element, xc, sub)
+            name = mesh.element.name
+            curved = integration3d.curved_cells(sub)
+            groups = []
+            for rows, degree in ((~curved, integration3d.SUBTET_DEGREE[name]),
+                                 (curved, integration3d.CURVED_SUBTET_DEGREE[name])):
+                if rows.any():
+                    part = cut3d.SubTets(sub.cells[rows], sub.nodes[rows], sub.side[rows])
+                    groups.append(integration3d.subtet_points(mesh.element, xc[rows], part, degree))
+            geo.cut_points = groups
         else:
-            geo.cut_points = integration.subcell_points(mesh.element, xc, sub, mesh.cell_ids[sub.cells])
+            geo.cut_points = [integration.subcell_points(mesh.element, xc, sub, mesh.cell_ids[sub.cells])]
     return geo.cut_points
 
 
