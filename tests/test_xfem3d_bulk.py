@@ -261,7 +261,8 @@ def test_contact_in_3d_is_refused_on_one_line(tmp_path):
 
 def test_free_sides_are_separate_bodies(tmp_path):
     """law = "free": the block on the LN > 0 side, held by nothing, is refused (each side
-    is a body); with law = "bonded" the same case runs."""
+    is a body); with law = "bonded" the same case runs, and so does the free one held by
+    a face that the interface cuts."""
     loads = f"""
         [[dirichlet]]
         group = "left"
@@ -276,6 +277,12 @@ def test_free_sides_are_separate_bodies(tmp_path):
     done = run_cli(["run", write_case(tmp_path, cube("HEXA20", CUTS["axis"], "bonded", loads), "bonded.toml"),
                     "-o", tmp_path / "o2"])
     assert done.returncode == 0, done.stderr
+    # a face the interface cuts holds both sides (its enriched nodes' Heaviside dofs fixed)
+    cut_face = loads.replace('group = "left"', 'group = "bottom"')
+    done = run_cli(["run", write_case(tmp_path, cube("HEXA20", CUTS["axis"], "free", cut_face), "both.toml"),
+                    "-o", tmp_path / "o3"])
+    assert done.returncode == 0, done.stderr
+    assert all(t["ok"] for t in results(tmp_path / "o3")["tests"])
 
 
 @pytest.mark.parametrize("name", ["box_plane_bonded_hexa20", "box_sphere_bonded_tetra10", "box_plane_free_hexa20"])
@@ -298,3 +305,18 @@ def test_validation_cases_run_from_the_command_line(tmp_path, name):
     assert "tetra10" in [b.type for b in m.cells]
     sides = np.concatenate(m.cell_data["side"])
     assert {-1, 1} <= set(np.unique(sides).tolist())
+
+
+def test_load_steps_with_tractions_on_cut_faces(tmp_path):
+    """box_plane_free_hexa20.toml with its tractions ramped over [instants] (the loads of
+    each instant rebuilt on the cut faces, xfemcontact.history.loading): exact at t = 1."""
+    text = (CASES / "validation" / "box_plane_free_hexa20.toml").read_text()
+    text = text.replace('[[traction]]\ngroup = "back"', '[instants]\nvalues = [0.0, 0.5, 1.0]\n\n'
+                        '[functions]\nramp = { vale = [0.0, 0.0, 1.0, 1.0] }\n\n'
+                        '[[traction]]\nfonc_mult = "ramp"\ngroup = "back"')
+    text = text.replace('[[traction]]\ngroup = "front"', '[[traction]]\nfonc_mult = "ramp"\ngroup = "front"')
+    assert text.count("fonc_mult") == 2
+    done = run_cli(["run", write_case(tmp_path, text), "-o", tmp_path / "out"])
+    assert done.returncode == 0, done.stdout + done.stderr
+    r = results(tmp_path / "out")
+    assert r["tests"] and all(t["ok"] for t in r["tests"])

@@ -70,10 +70,6 @@ class Geometry:
     face_facets: cut3d.Facets | None = None   # 3-D: cell faces lying on the interface
 
     @property
-    def dim(self) -> int:
-        return int(self.subcells.nodes.shape[-1])
-
-    @property
     def cut_cells(self) -> IntArray:
         return self.subcells.cells
 
@@ -82,6 +78,14 @@ class Geometry:
         a, b = self.cut_segments, self.edge_segments
         return cut.Segments(np.r_[a.cells, b.cells], np.concatenate([a.nodes, b.nodes]),
                             np.concatenate([a.where, b.where]))
+
+    def interface_points(self, mesh: LocalMesh, degree: int = 4) -> list[integration3d.FacetPoints]:
+        """3-D: Gauss points of the interface facets (cut cells, then cell faces on the
+        interface), weights in m^2, normals from - to +; empty in 2-D."""
+        el = mesh.element
+        return [integration3d.facet_points(el, mesh.x[mesh.cell_nodes[f.cells]], self.phi[mesh.cell_nodes[f.cells]],
+                                           f, degree)
+                for f in (self.facets, self.face_facets) if f is not None and len(f)]
 
     def enriched_cells(self, mesh: LocalMesh) -> IntArray:
         """Cells where some enriched node's shifted Heaviside is not zero."""
