@@ -205,6 +205,8 @@ def test_free_blocks_each_get_their_own_field(tmp_path, cell):
     assert live.sum() > 0
     assert np.abs(jump - expected)[live].max() <= 1e-10 * np.abs(expected[live]).max()
     assert np.abs(pts.x[live] @ [1, 0, 0.3] - C).max() < 1e-12           # points on the plane
+    area = sum(p.w.sum() for p in geo.interface_points(mesh))             # the plane across the box
+    assert abs(area - np.sqrt(1.09)) < 1e-12
 
 
 @pytest.mark.parametrize("cut", PLANES)

@@ -179,13 +179,14 @@ def _subcell_pieces(model: Model, xl: FloatArray) -> Columns:
     strains."""
     mesh, geo = model.mesh, model.geo
     assert geo is not None                     # cut cells: an interface
-    parts = [_subcell_group(model, xl, pts) for pts in xgeo.cell_points(mesh, geo, geo.subcells.cells)]
+    parts = [_subcell_group(model, xl, pts) for group in xgeo.cell_points(mesh, geo, geo.subcells.cells)
+             for pts in xgeo.chunks(group)]
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
 def _subcell_group(model: Model, xl: FloatArray, pts: CellPoints) -> Columns:
-    """:func:`_subcell_pieces` of the cut cells of one group of quadrature points ``pts``
-    (:func:`xfemcontact.xfem.geometry.cell_points`)."""
+    """:func:`_subcell_pieces` of the cut cells of one batch of quadrature points ``pts``
+    (:func:`xfemcontact.xfem.geometry.cell_points`, :func:`~xfemcontact.xfem.geometry.chunks`)."""
     mesh, geo, layout = model.mesh, model.geo, model.layout
     assert geo is not None                     # cut cells: an interface
     el = mesh.element

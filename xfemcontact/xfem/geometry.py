@@ -31,7 +31,7 @@ fields are empty and ``facets`` / ``face_facets`` hold the interface.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Iterator
 
 import numpy as np
@@ -184,7 +184,7 @@ def cell_points(mesh: LocalMesh, geo: Geometry, cells: IntArray) -> list[integra
 
 
 #: quadrature points of enriched cells handled at once by :func:`chunks`
-POINTS_CHUNK = 1 << 17
+POINTS_CHUNK = 1 << 16
 
 
 def chunks(pts: integration.CellPoints, points: int = POINTS_CHUNK) -> Iterator[integration.CellPoints]:
@@ -217,12 +217,36 @@ def _cut_points(mesh: LocalMesh, geo: Geometry) -> list[integration.CellPoints]:
             for rows, degree in ((~curved, integration3d.SUBTET_DEGREE[name]),
                                  (curved, integration3d.CURVED_SUBTET_DEGREE[name])):
                 if rows.any():
-                    part = cut3d.SubTets(sub.cells[rows], sub.nodes[rows], sub.side[rows])
-                    groups.append(integration3d.subtet_points(mesh.element, xc[rows], part, degree))
+                    groups.append(_subtet_points(mesh, xc[rows], cut3d.SubTets(sub.cells[rows], sub.nodes[rows],
+                                                                                sub.side[rows]), degree))
             geo.cut_points = groups
         else:
             geo.cut_points = [integration.subcell_points(mesh.element, xc, sub, mesh.cell_ids[sub.cells])]
     return geo.cut_points
+
+
+def _subtet_points(mesh: LocalMesh, xc: FloatArray, sub: cut3d.SubTets, degree: int) -> integration.CellPoints:
+    """:func:`integration3d.subtet_points` computed by batches of cells of at most
+    ``POINTS_CHUNK`` points into arrays allocated once (its temporaries are several
+    times its result)."""
+    k, ns = sub.side.shape
+    per = max(1, POINTS_CHUNK // (ns * integration3d.rule_size(degree)))
+    out: integration.CellPoints | None = None
+    for s in range(0, k, per):
+        part = integration3d.subtet_points(mesh.element, xc[s:s + per],
+                                           cut3d.SubTets(sub.cells[s:s + per], sub.nodes[s:s + per],
+                                                         sub.side[s:s + per]), degree)
+        if per >= k:
+            return part
+        if out is None:
+            out = integration.CellPoints(*(np.empty((k,) + getattr(part, f.name).shape[1:],
+                                                    getattr(part, f.name).dtype)
+                                           for f in fields(integration.CellPoints)))
+        for f in fields(integration.CellPoints):
+            getattr(out, f.name)[s:s + per] = getattr(part, f.name)
+        del part
+    assert out is not None                  # k > per >= 1: at least two batches
+    return out
 
 
 def support_ratio(mesh: LocalMesh, geo: Geometry) -> FloatArray:
@@ -231,13 +255,15 @@ def support_ratio(mesh: LocalMesh, geo: Geometry) -> FloatArray:
     cells = geo.enriched_cells(mesh)
     tot = np.zeros(n)
     opp = np.zeros(n)
-    for pts in cell_points(mesh, geo, cells):
-        nodes = mesh.cell_nodes[pts.cells]                                   # (k, nn)
-        g2 = np.einsum("kq,kqa->ka", pts.w, np.sum(pts.dNdx ** 2, axis=-1))
-        other = pts.side[:, :, None] != geo.node_side[nodes][:, None, :]    # (k, nq, nn)
-        g2o = np.einsum("kq,kqa->ka", pts.w, np.sum(pts.dNdx ** 2, axis=-1) * other)
-        np.add.at(tot, nodes, g2)
-        np.add.at(opp, nodes, g2o)
+    for group in cell_points(mesh, geo, cells):
+        for pts in chunks(group):
+            nodes = mesh.cell_nodes[pts.cells]                                   # (k, nn)
+            grad2 = np.sum(pts.dNdx ** 2, axis=-1)                               # (k, nq, nn)
+            g2 = np.einsum("kq,kqa->ka", pts.w, grad2)
+            other = pts.side[:, :, None] != geo.node_side[nodes][:, None, :]    # (k, nq, nn)
+            g2o = np.einsum("kq,kqa->ka", pts.w, grad2 * other)
+            np.add.at(tot, nodes, g2)
+            np.add.at(opp, nodes, g2o)
     # cells of the support outside the enriched set lie wholly on the node's side
     plain = geo.plain_cells(mesh)
     plain = plain[geo.enriched[mesh.cell_nodes[plain]].any(axis=1)]

@@ -48,6 +48,11 @@ CURVED_SUBTET_DEGREE = {"TETRA10": 5, "HEXA20": 9}
 CURVED = 1e-12
 
 
+def rule_size(degree: int) -> int:
+    """Points of the tetrahedron rule exact to ``degree`` (per sub-tetrahedron)."""
+    return len(gauss_tetrahedron(degree)[1])
+
+
 def subtet_points(el: Element, xc: FloatArray, sub: SubTets, degree: int | None = None) -> CellPoints:
     """Quadrature of the sub-tetrahedra ``sub`` of cells with coordinates ``xc (k, nn, 3)``:
     :class:`~xfemcontact.xfem.integration.CellPoints` with ``nq = ns x`` (rule size),
