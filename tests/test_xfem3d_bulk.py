@@ -277,6 +277,19 @@ def test_contact_in_3d_is_refused_on_one_line(tmp_path):
     assert len(lines) == 1 and "contact and friction in 3-D are not there yet" in lines[0], done.stderr
 
 
+def test_interface_fields_in_3d_are_refused_on_one_line(tmp_path):
+    """A test on gap (an interface field, not there in 3-D yet) is refused before the
+    set-up instead of reporting "no point selected"."""
+    text = (CASES / "validation" / "box_plane_free_hexa20.toml").read_text()
+    text = text.replace("[output]", '[[test]]\nfield = "gap"\ntype = "MAX"\nreference = 0\n'
+                        'tolerance = 1\ncriterion = "ABSOLU"\n\n[output]')
+    done = run_cli(["run", write_case(tmp_path, text), "-o", tmp_path / "out"])
+    assert done.returncode == 2
+    lines = [line for line in done.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and "the interface fields (LAGS_C, LAGS_F1, gap, slip) are not there in 3-D yet" \
+        in lines[0], done.stderr
+
+
 def test_free_sides_are_separate_bodies(tmp_path):
     """law = "free": the block on the LN > 0 side, held by nothing, is refused (each side
     is a body); with law = "bonded" the same case runs, and so does the free one held by
