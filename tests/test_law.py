@@ -83,3 +83,30 @@ def test_status_test_and_threshold():
     lam = np.array([0.0, 0.0, -1.0, -0.01])
     assert list(claw.update_status(law, chi, g, lam)) == [1, 0, 1, 0]
     assert list(claw.threshold(np.array([-2.0, 1e-12, 0.0]))) == [-2.0, 0.0, 0.0]
+
+
+def test_nodal_friction_status_uses_the_trial_traction():
+    """The friction statuses at the multiplier dofs (xfemcontact.contact.nodal): the
+    augmented test on the trial traction T + rho_T gt, without direct reversal."""
+    from xfemcontact.contact import nodal
+
+    rho_T = 1e3                                         # Pa/m
+    bound = np.full(7, 2.0)                             # mu |s|, Pa
+    active = np.array([True] * 6 + [False])
+    slip = np.array([0.0, 0.0, 0.0, 1.0, 1.0, -1.0, 1.0])
+    T = np.array([1.0, 1.0, -3.0, 2.0, 2.0, -2.0, 2.0])
+    gt = np.array([0.0, 2e-3, 0.0, 1e-4, -1e-4, 1e-2, 1e-3])
+    new = nodal.friction_status(slip, active, T, gt, bound, rho_T)
+    # 0: stick, |T| <= bound, no slip: stays; 1: stick but the trial 1 + 2 exceeds 2: slips
+    # forward; 2: stick with |T| > bound: slips along T; 3: slipping forward: stays;
+    # 4: slipping backwards, trial 1.9 within the bound: sticks; 5: the trial +8 points
+    # against the slip -1: sticks (no reversal); 6: friction inactive
+    assert list(new) == [0.0, 1.0, -1.0, 1.0, 0.0, 0.0, 0.0]
+    # friction unbounded (the first solve without SEUIL_INIT): every active dof sticks
+    free = nodal.friction_status(slip, active, T, gt, np.full(7, np.inf), rho_T)
+    assert not free.any()
+    # at a converged slipping state (T = bound p, slip along p) the status does not
+    # depend on rho_T
+    for r in (1e-6, 1.0, 1e12):
+        assert nodal.friction_status(np.array([1.0]), np.array([True]), np.array([2.0]),
+                                     np.array([1e-9]), np.array([2.0]), r)[0] == 1.0

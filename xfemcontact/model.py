@@ -84,7 +84,6 @@ class Model:
     load_norm: float
     x: PETSc.Vec
     solver: NonlinearSolver | None
-    load_steps: bool                  # solved in load steps (xfemcontact.history)
     _K_int: FloatArray | None
     _bulk_kept: bool
 
@@ -206,7 +205,6 @@ class Model:
         # one matrix: K = K_bulk + (interface tangent of the last Jacobian, K_int)
         self._K_int = None
         self._bulk_kept = False
-        self.load_steps = False            # solved in load steps (xfemcontact.history)
 
     def _zero_interface_pattern(self, A: PETSc.Mat, indices: IntArray) -> None:
         """Explicit zeros on every interface coupling (the global dofs ``indices`` of the

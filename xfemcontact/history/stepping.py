@@ -57,7 +57,6 @@ class Stepper:
         self.checkpoints = checkpoints
         self.loads = Loading(model)
         model.keep_bulk_values()
-        model.load_steps = True
         self.comm = model.comm
         self.instants = self.case.instants
         self.steps: list[dict[str, Any]] = []    # records (rank 0 holds the interface tables)

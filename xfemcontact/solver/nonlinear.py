@@ -33,7 +33,6 @@ class SolvedModel(Protocol):
     problem: InterfaceProblem | None
     K: PETSc.Mat
     load_norm: float
-    load_steps: bool
 
     def residual(self, snes: PETSc.SNES, x: PETSc.Vec, f: PETSc.Vec) -> None: ...
 
@@ -68,12 +67,12 @@ class NonlinearSolver:
         newton = model.case.newton
         f = model.layout.create_global_vec()
         self.jacobians = 0
-        settled = scaled = None
-        if getattr(model, "load_steps", False):
-            # load steps: statuses change within Newton at every step; the rows of the
-            # conditions at the dofs are kinematic (m^2) and must be converged as such
-            settled = getattr(model.problem, "friction_settled", None)
-            scaled = getattr(model.problem, "residual_norm", None)
+        # a semi-smooth Newton has converged when its statuses stop changing, and the
+        # rows of the conditions at the dofs are kinematic (m^2): they are converged as
+        # such, weighed into forces (a stick row violated by a whole slip increment
+        # weighs D |slip|, far below the loads)
+        settled = getattr(model.problem, "friction_settled", None)
+        scaled = getattr(model.problem, "residual_norm", None)
         self.newton, self.newton_test = create_snes(
             self.comm, model.residual, self._jacobian, model.K, f,
             newton.resi_glob_rela, newton.iter_glob_maxi, lambda: model.load_norm,
