@@ -27,7 +27,7 @@ from xfemcontact.contact import laws
 from xfemcontact.contact.problem import InterfaceSetup
 from xfemcontact.dofs import constraints
 from xfemcontact.dofs.layout import DofLayout
-from xfemcontact.errors import GeometryError, MeshError
+from xfemcontact.errors import CaseError, MeshError
 from xfemcontact.fem.elasticity import hooke
 from xfemcontact.mesh import plex
 from xfemcontact.mesh.build import build_raw_mesh
@@ -140,9 +140,8 @@ class Model:
         if missed:                       # no interface in the domain: solve without one
             self.warnings.append(missed)
             return None
-        if mesh.dim == 3:                # preflight refuses it first on the command line
-            raise GeometryError(f"{self.case.source}: interface: the level set cuts the 3-D mesh: "
-                                f"X-FEM interfaces in 3-D are not there yet")
+        if mesh.dim == 3 and laws.get(itf.law).multipliers:    # preflight refuses it first
+            raise CaseError(preflight.contact_3d_refusal(self.case.source))
         return geometry.build(mesh, phi)
 
     def _layout(self) -> None:
@@ -154,7 +153,7 @@ class Model:
         multiplier = np.zeros(len(x), bool)
         space: MultiplierSpace | None = None
         points: SegmentPoints | None = None
-        if geo is not None:
+        if geo is not None and mesh.dim == 2:
             assert law is not None                  # an interface has its law
             segs = geo.segments()
             xc = x[mesh.cell_nodes[segs.cells]]
@@ -165,9 +164,9 @@ class Model:
                 multiplier = space.carriers(mesh)
         self.layout = DofLayout(mesh, enriched, multiplier, fixed)
         self.x_bc = system.bc_array(self.layout, fixed, values)
-        self.problem = None
-        if geo is not None:
-            assert law is not None and points is not None      # set above
+        self.problem = None               # 3-D (free, bonded): no interface terms, no interface values
+        if geo is not None and points is not None:
+            assert law is not None                              # set above
             self.problem = law.problem(InterfaceSetup(mesh, geo, self.layout, points, space, self.case))
 
     def _interface_order(self, xc: FloatArray) -> int:

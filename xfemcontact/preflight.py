@@ -255,11 +255,13 @@ def _preflight(case: Case, raw: RawMesh) -> Preflight:
 
 def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -> Preflight:
     """What :func:`_preflight` checks of a 3-D mesh after the groups, the extent and the
-    imposed displacements: the level set (X-FEM interfaces are 2-D only for now) and
-    the rigid-body motions (:mod:`xfemcontact.rigid`)."""
+    imposed displacements: the level set (laws ``free`` and ``bonded``; contact and
+    friction are refused) and the rigid-body motions (:mod:`xfemcontact.rigid`, each
+    side a body for ``free``)."""
     from xfemcontact import rigid
 
     itf = case.interface
+    phi: FloatArray | None = None
     if itf is not None:
         x = raw.points
         if itf.level_set is not None:
@@ -276,17 +278,35 @@ def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -
                             f"{raw.source}")
         warning = levelset_meets_domain(np.where(phi[used] == 0, 0.0, values), None,
                                         source=case.source, key=key)
-        if not warning:
-            raise GeometryError(f"{case.source}: {key}: the level set cuts the 3-D mesh (LN from "
-                                f"{values.min():.4g} to {values.max():.4g}): X-FEM interfaces in 3-D "
-                                f"are not there yet (3-D cases run without interface, or with a "
-                                f"level set of one sign on the mesh)")
-        result.warnings.append(warning)
-        result.interface = False
-    problem = rigid.check(case, raw)
+        if warning:
+            result.warnings.append(warning)
+            result.interface = False
+            phi = None
+        elif laws.get(itf.law).multipliers:
+            raise CaseError(contact_3d_refusal(case.source))
+        else:
+            flat = np.flatnonzero(~(phi[raw.cells] != 0).any(axis=1))
+            if len(flat):
+                ctr = x[raw.cells[flat[0]]].mean(axis=0)
+                raise GeometryError(f"{case.source}: {key}: LN = 0 at every node of cell {flat[0]} near "
+                                    f"({ctr[0]:.6g}, {ctr[1]:.6g}, {ctr[2]:.6g}): the interface must be "
+                                    f"a surface with LN < 0 on one side and LN > 0 on the other")
+    on_interface = [t for t in case.tests if t.kind == "interface"]
+    if phi is not None and on_interface:
+        t = on_interface[0]
+        raise CaseError(f"{case.source}: test '{t.name}': the interface fields (LAGS_C, LAGS_F1, gap, "
+                        f"slip) are not there in 3-D yet: test DX, DY, DZ and the stresses")
+    law = laws.get(itf.law) if itf is not None and phi is not None else None
+    problem = rigid.check(case, raw, phi if law is not None and law.separate_bodies else None)
     if problem:
         raise CaseError(problem)
     return result
+
+
+def contact_3d_refusal(source: str) -> str:
+    """The one line refusing an interface law with multipliers (contact, friction) in 3-D."""
+    return (f"{source}: interface.law: contact and friction in 3-D are not there yet "
+            f"(3-D interfaces take law = \"bonded\" or \"free\")")
 
 
 # --- groups ------------------------------------------------------------------------------

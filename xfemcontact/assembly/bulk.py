@@ -3,9 +3,10 @@
 A *batch* is a set of cells sharing a dof layout:
 
 * plain cells: functions ``N_a`` of the cell's nodes, dofs ``(DX, DY, [DZ])``;
-* enriched cells (2-D): functions ``N_a`` then ``psi_a N_a`` (shifted Heaviside,
-  constant on each integration sub-cell), dofs ``(DX, DY)`` then ``(H1X, H1Y)``
-  -- absent Heaviside dofs point to a slot that is always zero.
+* enriched cells: functions ``N_a`` then ``psi_a N_a`` (shifted Heaviside,
+  constant on each integration sub-cell), per component ``DX`` then ``H1X``
+  (``DY``, ``H1Y``, [``DZ``, ``H1Z``]) -- absent Heaviside dofs point to a slot
+  that is always zero.
 
 Element dofs are blocked by component (see :mod:`xfemcontact.fem.elasticity`).
 Work is chunked so that element matrices of at most ``CHUNK`` cells exist at once.
@@ -60,14 +61,21 @@ def plain_batch(mesh: LocalMesh, layout: DofLayout, cells: IntArray) -> Batch:
 
 
 def enriched_batch(mesh: LocalMesh, layout: DofLayout, cells: IntArray) -> Batch:
-    """Batch of cells with functions (N_a, psi_a N_a): dofs (DX.., H1X.., DY.., H1Y..)."""
-    nodes = mesh.cell_nodes[cells]
-    hl = np.where(layout.h_local >= 0, layout.h_local, layout.dummy)
-    loc = np.concatenate([layout.u_local[nodes, 0], hl[nodes, 0],
-                          layout.u_local[nodes, 1], hl[nodes, 1]], axis=1)
-    glob = np.concatenate([layout.u_global[nodes, 0], layout.h_global[nodes, 0],
-                           layout.u_global[nodes, 1], layout.h_global[nodes, 1]], axis=1)
-    return Batch(cells, loc, glob)
+    """Batch of cells with functions (N_a, psi_a N_a): dofs (DX.., H1X.., DY.., H1Y..,
+    [DZ.., H1Z..]), ``(ne, 2 d nn)``."""
+    return Batch(cells, enriched_dofs(layout, mesh.cell_nodes[cells]),
+                 enriched_dofs(layout, mesh.cell_nodes[cells], glob=True))
+
+
+def enriched_dofs(layout: DofLayout, nodes: IntArray, glob: bool = False) -> IntArray:
+    """Local (absent Heaviside dofs: ``layout.dummy``) or global (absent: -1) dofs
+    ``(k, 2 d m)`` of the functions (N_a, psi_a N_a) of nodes ``(k, m)``, blocked by
+    component: (DX.., H1X.., DY.., H1Y.., [DZ.., H1Z..])."""
+    if glob:
+        u, h = layout.u_global, layout.h_global
+    else:
+        u, h = layout.u_local, np.where(layout.h_local >= 0, layout.h_local, layout.dummy)
+    return np.concatenate([a[nodes, c] for c in range(layout.dim) for a in (u, h)], axis=1)
 
 
 class PlainStiffness:
@@ -102,8 +110,8 @@ class PlainStiffness:
 
 
 def enriched_gradients(G_std: FloatArray, psi: FloatArray) -> FloatArray:
-    """Gradients ``(ne, nq, 2 nn, 2)`` of (N_a, psi_a N_a) from those of N_a,
-    ``G_std (ne, nq, nn, 2)``, and Heaviside weights ``psi (ne, nq, nn)``."""
+    """Gradients ``(ne, nq, 2 nn, d)`` of (N_a, psi_a N_a) from those of N_a,
+    ``G_std (ne, nq, nn, d)``, and Heaviside weights ``psi (ne, nq, nn)``."""
     return np.concatenate([G_std, psi[..., None] * G_std], axis=2)
 
 

@@ -17,6 +17,7 @@ from xfemcontact._petsc import PETSc
 from xfemcontact.assembly import bulk, loads
 from xfemcontact.fem import elasticity
 from xfemcontact.fem.elements import Seg3
+from xfemcontact.xfem import cut3d, integration3d
 from xfemcontact.xfem import geometry as xgeo
 from xfemcontact.xfem.levelset import edge_crossing
 
@@ -51,7 +52,7 @@ def heaviside_weights(mesh: LocalMesh, geo: Geometry, pts: CellPoints) -> FloatA
 
 
 def enriched_gradients(mesh: LocalMesh, geo: Geometry, pts: CellPoints) -> FloatArray:
-    """Gradients ``(k, nq, 2 nn, 2)`` of the functions (N_a, psi_a N_a) of enriched cells
+    """Gradients ``(k, nq, 2 nn, d)`` of the functions (N_a, psi_a N_a) of enriched cells
     at the points ``pts`` (see :func:`heaviside_weights`)."""
     return bulk.enriched_gradients(pts.dNdx, heaviside_weights(mesh, geo, pts))
 
@@ -66,11 +67,12 @@ def assemble_bulk(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, D: F
     if geo is None:
         return
     C = elasticity.tensor(D)
-    for pts in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
-        batch = bulk.enriched_batch(mesh, layout, pts.cells)
-        K = elasticity.stiffness(enriched_gradients(mesh, geo, pts), pts.w, C)
-        bulk.add_matrices(A, batch, K)
-        bulk.add_lift(r_local, batch, K, x_bc)
+    for group in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
+        for pts in xgeo.chunks(group):
+            batch = bulk.enriched_batch(mesh, layout, pts.cells)
+            K = elasticity.stiffness(enriched_gradients(mesh, geo, pts), pts.w, C)
+            bulk.add_matrices(A, batch, K)
+            bulk.add_lift(r_local, batch, K, x_bc)
 
 
 def add_body_forces(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, body: BodyForce,
@@ -87,21 +89,23 @@ def add_body_forces(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, bo
         np.add.at(f_local, bulk.plain_batch(mesh, layout, cells).local, fe.reshape(len(cells), fe.shape[1] * fe.shape[2]))
     if geo is None:
         return
-    for pts in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
-        psi = heaviside_weights(mesh, geo, pts)
-        vals = np.concatenate([pts.N, psi * pts.N], axis=2)
-        fe = loads.body_forces(vals, pts.w, pts.x, body)
-        np.add.at(f_local, bulk.enriched_batch(mesh, layout, pts.cells).local, fe.reshape(len(pts.cells), fe.shape[1] * fe.shape[2]))
+    for group in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
+        for pts in xgeo.chunks(group):
+            psi = heaviside_weights(mesh, geo, pts)
+            vals = np.concatenate([pts.N, psi * pts.N], axis=2)
+            fe = loads.body_forces(vals, pts.w, pts.x, body)
+            np.add.at(f_local, bulk.enriched_batch(mesh, layout, pts.cells).local,
+                      fe.reshape(len(pts.cells), fe.shape[1] * fe.shape[2]))
 
 
 def add_tractions(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, traction: Iterable[Traction],
                   f_local: FloatArray) -> None:
-    """Surface tractions of the case into ``f_local``: on edges in 2-D (split by the
-    interface), on faces in 3-D."""
+    """Surface tractions of the case into ``f_local``: on edges in 2-D, on faces in 3-D,
+    each split by the interface (see :func:`_edge_forces_by_side`, :func:`add_face_tractions`)."""
     for spec in traction:
         if mesh.dim == 3:
             for g in spec.groups:
-                add_face_tractions(mesh, layout, mesh.group_faces(g)[0], spec, f_local)
+                add_face_tractions(mesh, geo, layout, mesh.group_faces(g), spec, f_local)
             continue
         for g in spec.groups:
             nodes, _, _ = mesh.group_edges(g)
@@ -112,20 +116,51 @@ def add_tractions(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout, trac
             np.add.at(f_local, _edge_dofs(layout, nodes), fe.reshape(len(nodes), fe.shape[1] * fe.shape[2]))
 
 
-def add_face_tractions(mesh: LocalMesh, layout: DofLayout, nodes: IntArray, spec: Traction,
+def add_face_tractions(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout,
+                       faces: tuple[IntArray, IntArray, IntArray], spec: Traction,
                        f_local: FloatArray) -> None:
-    """Forces of traction ``spec`` on the faces ``nodes (k, nf)`` (outward, in their
-    element's order) of a 3-D mesh into ``f_local``."""
+    """Forces of traction ``spec`` on the faces of a 3-D mesh into ``f_local``.
+
+    ``faces``: ``(nodes (k, nf), cell (k,), local_face (k,))`` of
+    :meth:`~xfemcontact.mesh.plex.LocalMesh.group_faces` (outward, in their
+    element's order).  Faces of cells without Heaviside functions: the face's own
+    element.  Faces of uncut cells with enriched nodes: the same forces, times
+    ``psi_a = H(cell) - H(node a)`` on the Heaviside dofs.  Faces of cut cells: the
+    faces of the cell's sub-tetrahedra lying on the face, each with the Heaviside
+    value of its side (:func:`~xfemcontact.xfem.integration3d.cut_face_points`).
+    """
+    nodes, cell, local = faces
     if len(nodes) == 0:
         return
-    fe = loads.face_forces(mesh.x[nodes], mesh.element.face_type, spec)    # (k, 3, nf)
-    np.add.at(f_local, bulk._blocked(layout.u_local, nodes), fe.reshape(len(nodes), -1))
+    if geo is None:
+        fe = loads.face_forces(mesh.x[nodes], mesh.element.face_type, spec)    # (k, 3, nf)
+        np.add.at(f_local, bulk._blocked(layout.u_local, nodes), fe.reshape(len(nodes), -1))
+        return
+    cut = geo.cell_side[cell] == 0
+    whole, wcell = nodes[~cut], cell[~cut]
+    if len(whole):
+        fe = loads.face_forces(mesh.x[whole], mesh.element.face_type, spec)     # (k, 3, nf)
+        psi = (geo.cell_side[wcell, None] - geo.node_side[whole]) * geo.enriched[whole]
+        fe = np.concatenate([fe, fe * psi[:, None, :]], axis=2)                 # (k, 3, 2 nf)
+        np.add.at(f_local, bulk.enriched_dofs(layout, whole), fe.reshape(len(fe), -1))
+    if cut.any():
+        sub = geo.subcells
+        assert isinstance(sub, cut3d.SubTets)                                   # 3-D cut cells
+        rows = np.searchsorted(sub.cells, cell[cut])
+        sub = cut3d.SubTets(sub.cells[rows], sub.nodes[rows], sub.side[rows])
+        pts, side = integration3d.cut_face_points(mesh.element, mesh.x[mesh.cell_nodes[sub.cells]], sub,
+                                                  local[cut])
+        t = loads.traction_vectors(spec, pts.x, pts.normal)                     # (k, p, 3)
+        cn = mesh.cell_nodes[sub.cells]
+        N = mesh.element.shape(pts.xi)                                          # (k, p, nn)
+        psi = (side[:, :, None] - geo.node_side[cn][:, None, :]) * geo.enriched[cn][:, None, :]
+        vals = np.concatenate([N, N * psi], axis=2)                             # (k, p, 2 nn)
+        fc = np.einsum("kp,kpi,kpa->kia", pts.w, t, vals)
+        np.add.at(f_local, bulk.enriched_dofs(layout, cn), fc.reshape(len(fc), -1))
 
 
 def _edge_dofs(layout: DofLayout, nodes: IntArray) -> IntArray:
-    hl = np.where(layout.h_local >= 0, layout.h_local, layout.dummy)
-    return np.concatenate([layout.u_local[nodes, 0], hl[nodes, 0],
-                           layout.u_local[nodes, 1], hl[nodes, 1]], axis=1)
+    return bulk.enriched_dofs(layout, nodes)
 
 
 def _edge_forces_by_side(mesh: LocalMesh, geo: Geometry | None, nodes: IntArray, xe: FloatArray,

@@ -1,11 +1,12 @@
 """Which components are imposed, and their values.
 
 Imposed displacements (code_aster DDL_IMPO) fix DX/DY (DZ in 3-D) at the nodes of
-their groups.  At an enriched node the displacement must hold on both sides of the
-interface wherever the interface reaches the constrained boundary, so its
-Heaviside dofs of the same components are fixed to zero when an edge of the
-group through the node touches the interface (or when the group is a group of
-nodes).  A law with ``zero_jump`` (bonded) fixes every Heaviside dof.
+their groups: the displacement of the node's own side (the Heaviside functions
+are shifted).  At an enriched node the displacement must hold on both sides of
+the interface wherever the interface reaches the constrained boundary, so its
+Heaviside dofs of the same components are fixed to zero when an edge (3-D: a
+face) of the group through the node touches the interface (or when the group is
+a group of nodes).  A law with ``zero_jump`` (bonded) fixes every Heaviside dof.
 """
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ if TYPE_CHECKING:
 
 
 def _touching_edges(mesh: LocalMesh, phi: FloatArray, edges: IntArray) -> BoolArray:
-    """Edges ``(k, 3)`` along which LN is not of one strict sign."""
+    """Edges ``(k, 3)`` (or faces ``(k, m)``) along which LN is not of one strict sign."""
     p = phi[edges]
     return ~(np.all(p > 0, axis=1) | np.all(p < 0, axis=1))
 
@@ -74,13 +75,29 @@ def _group_nodes_everywhere(mesh: LocalMesh, groups: Iterable[str]) -> IntArray:
     return np.nonzero(flag)[0].astype(np.int64)
 
 
+def _group_face_nodes(mesh: LocalMesh, group: str) -> IntArray:
+    """``(k, m)`` nodes of every local face of 3-D group ``group`` (shared ones too; the
+    nodes of each of the face's edges, so vertices come twice)."""
+    from xfemcontact.mesh import plex3d
+
+    edges = plex3d.face_edges(mesh.plex, mesh.group_points(group))           # (k, edges per face)
+    if edges.size == 0:
+        return np.zeros((0, 3), np.int64)
+    return mesh.edge_nodes(edges.ravel()).reshape(len(edges), -1)
+
+
 def _heaviside_nodes(mesh: LocalMesh, geo: Geometry, groups: Iterable[str]) -> IntArray:
-    """Enriched nodes of ``groups`` where the interface reaches the group."""
+    """Enriched nodes of ``groups`` where the interface reaches the group: the nodes of
+    its edges (2-D) or faces (3-D) along which LN is not of one strict sign, and the
+    nodes of node groups."""
     flag = np.zeros(len(mesh.x), dtype=np.int64)
     for g in groups:
         edges = mesh.group_edge_nodes(g)
         touch = _touching_edges(mesh, geo.phi, edges)
         flag[edges[touch].ravel()] = 1
+        if mesh.dim == 3:
+            faces = _group_face_nodes(mesh, g)
+            flag[faces[_touching_edges(mesh, geo.phi, faces)].ravel()] = 1
         flag[mesh.node_of_point[mesh.group_points(g, NODE)]] = 1      # nodes of a node group
     flag = reduce_nodes(mesh, flag, "max").astype(bool)
     return np.nonzero(flag & geo.enriched)[0]

@@ -86,10 +86,10 @@ class Loading:
 
         #: per [[dirichlet]]: its nodes (the values of a later one override an earlier one's)
         self._dirichlet = [(nodes_of(d.groups), d) for d in self.case.dirichlet]
-        #: per [[traction]]: the edges (nodes (k, 3)) this process integrates, per group (the
-        #: faces (nodes (k, 8|6)) in 3-D)
+        #: per [[traction]]: the edges (nodes (k, 3), cell, local edge) this process integrates,
+        #: per group (the faces (nodes (k, 8|6), cell, local face) in 3-D)
         sides = mesh.group_faces if mesh.dim == 3 else mesh.group_edges
-        self._edges = [[sides(g)[0] for g in tr.groups] for tr in self.case.traction]
+        self._edges = [[sides(g) for g in tr.groups] for tr in self.case.traction]
         #: per load of the load path: its label and the owned nodes of its groups
         self._path_nodes = [nodes_of(tr.groups) for tr in self.case.traction]
 
@@ -120,11 +120,12 @@ class Loading:
         """Add the forces of traction ``spec`` (the ``index``-th) on its edges to ``f``
         (what :func:`xfemcontact.assembly.system.add_tractions` does, on the edges kept)."""
         mesh, geo, layout = self._mesh, self._geo, self._layout
-        for nodes in self._edges[index]:
+        for where in self._edges[index]:
+            nodes = where[0]
             if len(nodes) == 0:
                 continue
             if mesh.dim == 3:
-                system.add_face_tractions(mesh, layout, nodes, spec, f)
+                system.add_face_tractions(mesh, geo, layout, where, spec, f)
                 continue
             fe = system._edge_forces_by_side(mesh, geo, nodes, mesh.x[nodes], spec)      # (k, 2, 6)
             np.add.at(f, system._edge_dofs(layout, nodes), fe.reshape(len(nodes), fe.shape[1] * fe.shape[2]))

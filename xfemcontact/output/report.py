@@ -54,7 +54,9 @@ def render(summary: dict[str, Any], files: Iterable[str], case_source: str = "",
             f"{m['cells']} {m['cell_type']} cells, {m['nodes']} nodes."]
     g = s.get("geometry")
     if g:
-        out.append(f"Interface: {g['cut_cells']} cut cells, {g['edge_segments']} segments on cell edges, "
+        on = f"{g['edge_segments']} segments on cell edges" if "interface_facets" not in g else \
+            f"{g['interface_facets']} facets (area {g['interface_area']:.6g} m^2)"
+        out.append(f"Interface: {g['cut_cells']} cut cells, {on}, "
                    f"{g['enriched_nodes']} Heaviside-enriched nodes "
                    f"({g['dropped_heaviside_nodes']} dropped by the conditioning rule).")
     out.append("")

@@ -50,13 +50,19 @@ def summary(model: Model, converged: bool, reason: int, outcomes: Iterable[Outco
 
 
 def geometry_summary(model: Model) -> dict[str, Any] | None:
-    """Cut cells, segments and enriched nodes over every process (None without interface)."""
+    """Cut cells, segments (3-D: facets and the interface area, m^2) and enriched nodes over
+    every process (None without interface)."""
     geo = model.geo
     if geo is None:
         return None
     mpi = model.comm.tompi4py()
     r = geo.readjustment
-    return {"cut_cells": mpi.allreduce(len(geo.cut_cells)),
+    facets = {}
+    if model.mesh.dim == 3:             # the interface is made of facets, not segments
+        live = sum(int(f.live.sum()) for f in (geo.facets, geo.face_facets) if f is not None)
+        area = sum(float(p.w.sum()) for p in geo.interface_points(model.mesh))
+        facets = {"interface_facets": mpi.allreduce(live), "interface_area": mpi.allreduce(area)}
+    return {**facets, "cut_cells": mpi.allreduce(len(geo.cut_cells)),
             "cut_cells_per_process": mpi.allgather(len(geo.cut_cells)),
             "edge_segments": mpi.allreduce(len(geo.edge_segments)),
             "enriched_nodes": mpi.allreduce(int((geo.enriched & model.mesh.node_owned).sum())),

@@ -102,12 +102,13 @@ def _plain_chunks(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout,
 
 def _enriched_strains(mesh: LocalMesh, geo: Geometry | None, layout: DofLayout,
                       x_local: FloatArray) -> Iterator[tuple[CellPoints, FloatArray]]:
-    """Enriched cells by batches: ``(CellPoints, strains (k, nq, 3))``, Heaviside part included."""
+    """Enriched cells by batches: ``(CellPoints, strains (k, nq, nv))``, Heaviside part included."""
     if geo is None:
         return
-    for pts in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
-        ue = x_local[bulk.enriched_batch(mesh, layout, pts.cells).local]
-        yield pts, elasticity.strain(enriched_gradients(mesh, geo, pts), ue)
+    for group in xgeo.cell_points(mesh, geo, geo.enriched_cells(mesh)):
+        for pts in xgeo.chunks(group):
+            ue = x_local[bulk.enriched_batch(mesh, layout, pts.cells).local]
+            yield pts, elasticity.strain(enriched_gradients(mesh, geo, pts), ue)
 
 
 def _weighted_mean(w: FloatArray, e: FloatArray) -> FloatArray:

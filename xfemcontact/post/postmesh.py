@@ -1,9 +1,9 @@
 """The post-processing mesh, like code_aster's POST_MAIL_XFEM + POST_CHAM_XFEM.
 
-* uncut cells are kept as they are (QUAD8, TRIA6; HEXA20, TETRA10 in 3-D, where no
-  cell is cut yet);
-* every cut cell is replaced by its 6-node sub-triangles (:mod:`xfemcontact.xfem.cut`),
-  whose physical nodes are the parent map of their reference nodes;
+* uncut cells are kept as they are (QUAD8, TRIA6; HEXA20, TETRA10 in 3-D);
+* every cut cell is replaced by its 6-node sub-triangles (:mod:`xfemcontact.xfem.cut`;
+  in 3-D its 10-node sub-tetrahedra, :mod:`xfemcontact.xfem.cut3d`), whose physical
+  nodes are the parent map of their reference nodes;
 * a point shared by cells of both sides (a point of the interface: where it
   crosses cell edges, the segment mid-points, mesh nodes with LN = 0) is
   duplicated, one copy per side, so the displacement jump shows.
@@ -18,8 +18,8 @@ LN < 0 side (code_aster's "NM" nodes), +1 on those of the LN > 0 side ("NP"),
 
 Cell fields: SIXX, SIYY, SIXY (Pa) and EPXX, EPYY, EPXY (tensor shear strain; in 3-D
 the six components XX, YY, ZZ, XY, XZ, YZ) averaged over the cell or sub-cell, ``side`` (-1/+1; 0 without interface),
-``cell`` (the input cell index) and ``subcell`` (index of the sub-triangle in
-its parent, -1 for uncut cells).
+``cell`` (the input cell index) and ``subcell`` (index of the sub-triangle or
+sub-tetrahedron in its parent, -1 for uncut cells).
 
 In MED files the interface copies also form node groups NM (LN < 0 side), NP
 (LN > 0 side) and NFISSU (both), as POST_MAIL_XFEM names them.
@@ -51,6 +51,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike, NDArray
 
     from xfemcontact.model import Model
+    from xfemcontact.xfem.integration import CellPoints
 
     FloatArray = NDArray[np.float64]
     IntArray = NDArray[np.int64]
@@ -69,6 +70,8 @@ CELL_FIELDS = ("SIXX", "SIYY", "SIXY", "EPXX", "EPYY", "EPXY", "side", "cell", "
 #: the same in 3-D
 CELL_FIELDS_3D = ("SIXX", "SIYY", "SIZZ", "SIXY", "SIXZ", "SIYZ",
                   "EPXX", "EPYY", "EPZZ", "EPXY", "EPXZ", "EPYZ", "side", "cell", "subcell")
+#: the element of the sub-cells of cut cells, per dimension
+SUBCELL = {2: "TRIA6", 3: "TETRA10"}
 #: Voigt components, per dimension
 VOIGT = {2: ("XX", "YY", "XY"), 3: ("XX", "YY", "ZZ", "XY", "XZ", "YZ")}
 
@@ -172,28 +175,40 @@ def _pieces(model: Model, xl: FloatArray) -> Columns:
 
 
 def _subcell_pieces(model: Model, xl: FloatArray) -> Columns:
-    """Sub-triangles of the cut cells with their mean stresses and strains."""
+    """Sub-triangles (3-D: sub-tetrahedra) of the cut cells with their mean stresses and
+    strains."""
+    mesh, geo = model.mesh, model.geo
+    assert geo is not None                     # cut cells: an interface
+    parts = [_subcell_group(model, xl, pts) for group in xgeo.cell_points(mesh, geo, geo.subcells.cells)
+             for pts in xgeo.chunks(group)]
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def _subcell_group(model: Model, xl: FloatArray, pts: CellPoints) -> Columns:
+    """:func:`_subcell_pieces` of the cut cells of one batch of quadrature points ``pts``
+    (:func:`xfemcontact.xfem.geometry.cell_points`, :func:`~xfemcontact.xfem.geometry.chunks`)."""
     mesh, geo, layout = model.mesh, model.geo, model.layout
     assert geo is not None                     # cut cells: an interface
     el = mesh.element
-    sub = geo.subcells
-    k, ns = sub.side.shape
-    live = sub.side != 0                                                      # (k, ns)
-    cells = np.repeat(sub.cells, ns)[live.ravel()]
-    xi = sub.nodes[live]                                                      # (m, 6, 2)
-    side = sub.side[live]
-    xc = mesh.x[mesh.cell_nodes[cells]]
-    x = el.map_points(xc, xi)
-    pts, = xgeo.cell_points(mesh, geo, sub.cells)                            # cut cells only: one batch
+    rows = np.searchsorted(geo.subcells.cells, pts.cells)
+    nodes, sides = geo.subcells.nodes[rows], geo.subcells.side[rows]        # (k, ns, nsn, d), (k, ns)
+    k, ns, nsn = nodes.shape[:3]
+    nv = 3 * el.dim - 3
+    live = sides != 0                                                         # (k, ns)
+    cells = np.repeat(pts.cells, ns)[live.ravel()]
+    xi = nodes[live]                                                          # (m, nsn, d)
+    side = sides[live]
+    x = el.map_points(mesh.x[mesh.cell_nodes[cells]], xi)
     ue = xl[bulk.enriched_batch(mesh, layout, pts.cells).local]
-    e = elasticity.strain(enriched_gradients(mesh, geo, pts), ue)             # (k, ns nq, 3)
+    e = elasticity.strain(enriched_gradients(mesh, geo, pts), ue)             # (k, ns nq, nv)
     w = pts.w.reshape(k, ns, -1)                                              # sub-cell major
-    area = np.maximum(w.sum(axis=2), 1e-300)[..., None]
-    eps = np.einsum("ksq,ksqi->ksi", w, e.reshape(k, ns, -1, 3)) / area       # (k, ns, 3)
+    vol = w.sum(axis=2)                                                       # > 0 but for folded ones
+    area = np.where(np.abs(vol) > 1e-300, vol, 1e-300)[..., None]
+    eps = np.einsum("ksq,ksqi->ksi", w, e.reshape(k, ns, -1, nv)) / area      # (k, ns, nv)
     sig = eps @ model.D.T                                                     # linear: mean of D eps
-    return dict(cell=mesh.cell_ids[cells], sub=np.nonzero(live)[1], nn=np.full(len(cells), 6),
-                x=x, node=np.full((len(cells), 6), -1, np.int64), u=displacement_at(model, xl, cells, xi, side), side=side,
-                sig=sig[live], eps=eps[live])
+    return dict(cell=mesh.cell_ids[cells], sub=np.nonzero(live)[1], nn=np.full(len(cells), nsn),
+                x=x, node=np.full((len(cells), nsn), -1, np.int64), u=displacement_at(model, xl, cells, xi, side),
+                side=side, sig=sig[live], eps=eps[live])
 
 
 def nodal_displacement(model: Model, xl: FloatArray, cells: IntArray, side: ArrayLike) -> FloatArray:
@@ -211,7 +226,7 @@ def nodal_displacement(model: Model, xl: FloatArray, cells: IntArray, side: Arra
 
 def displacement_at(model: Model, xl: FloatArray, cells: IntArray, xi: FloatArray,
                     side: ArrayLike) -> FloatArray:
-    """Displacement ``(k, p, 2)`` (m) at parent reference points ``xi (k, p, 2)`` of
+    """Displacement ``(k, p, d)`` (m) at parent reference points ``xi (k, p, d)`` of
     local ``cells (k,)``, on side ``side (k,)``:
     ``u = sum N_a a_a + sum psi_a N_a h_a``, ``psi_a = H(side) - H(node a)``."""
     mesh, geo, layout = model.mesh, model.geo, model.layout
@@ -286,10 +301,10 @@ def assemble(pieces: Columns, samples: Columns | None, cell_type: str,
              near: IntArray | None = None) -> PostMesh:
     """Number cells and points of the gathered ``pieces`` (see :func:`_pieces`);
     ``near``: input node ids that sub-cell nodes may coincide with (all if None)."""
-    tri = element("TRIA6")
     parent = element(cell_type)
     d = parent.dim
-    block = (pieces["nn"] == 6).astype(int) if cell_type == "QUAD8" else np.zeros(len(pieces["nn"]), int)
+    tri = element(SUBCELL[d])                                                 # the sub-cells' element
+    block = (pieces["nn"] != parent.nn).astype(int)                           # 1: sub-cells of another type
     if _sorted(block, pieces["cell"], pieces["sub"]):                        # one process, QUAD8
         p = pieces
     else:
@@ -324,13 +339,14 @@ def assemble(pieces: Columns, samples: Columns | None, cell_type: str,
     conn[slot] = slot_point
     blocks: list[tuple[str, IntArray]] = []
     cd: dict[str, list[NDArray[Any]]] = {k: [] for k in (CELL_FIELDS_3D if d == 3 else CELL_FIELDS)}
-    names = [MESHIO_CELL[cell_type], "triangle6"] if cell_type == "QUAD8" else [MESHIO_CELL[cell_type]]
-    for b, name in enumerate(names):
+    types = [cell_type] if cell_type == tri.name else [cell_type, tri.name]
+    for b, ours in enumerate(types):
         rows = block == b
         if not rows.any():
             continue
-        n = parent.nn if (b == 0 and cell_type in ("QUAD8", "HEXA20", "TETRA10")) else tri.nn
-        perm = meshio_order(cell_type) if b == 0 else None
+        name = MESHIO_CELL[ours]
+        n = element(ours).nn
+        perm = meshio_order(ours)
         blocks.append((name, conn[rows, :n] if perm is None else conn[rows][:, perm]))
         sig, eps = p["sig"][rows], p["eps"][rows]
         for i, c in enumerate(VOIGT[d]):
