@@ -303,7 +303,6 @@ class NodalContactProblem(InterfaceProblem):
         """The friction statuses the rules give at ``x`` from the committed ones, and
         the values they come from: ``(slip, h, lam, T, active, bound)``."""
         ve, h, lam, T = self._values(x)
-        D = self._mean_divisor()
         active, bound = self._bounds()
         gt = self._mean_slip(h if self._h0 is None else h - self._h0, lam.shape)
         # the round-off of the slips: on the scale of the slip (of the step, and after
