@@ -102,9 +102,11 @@ def friction_status(slip: FloatArray, active: BoolArray, T: FloatArray, gt: Floa
     converged slipping dof (T at the bound, slip along it) keeps it whatever rho_T.
     """
     trial = T + rho_T * gt
-    band = bound * ROUNDOFF + rho_T * tol_slip
-    starts = np.where(np.abs(trial) > bound + band, np.sign(trial), 0.0)
-    goes_on = np.where(slip * trial >= bound - band, slip, 0.0)
+    finite = np.isfinite(bound)                 # unbounded: every active dof sticks
+    b = np.where(finite, bound, 0.0)
+    band = b * ROUNDOFF + rho_T * tol_slip
+    starts = np.where(finite & (np.abs(trial) > b + band), np.sign(trial), 0.0)
+    goes_on = np.where(finite & (slip * trial >= b - band), slip, 0.0)
     return np.where(active, np.where(slip == 0, starts, goes_on), 0.0)
 
 
