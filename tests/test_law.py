@@ -110,3 +110,30 @@ def test_nodal_friction_status_uses_the_trial_traction():
     for r in (1e-6, 1.0, 1e12):
         assert nodal.friction_status(np.array([1.0]), np.array([True]), np.array([2.0]),
                                      np.array([1e-9]), np.array([2.0]), r)[0] == 1.0
+
+
+def test_threshold_update_converges_on_affine_maps_and_halves_after_status_changes():
+    """The Anderson-accelerated threshold update (xfemcontact.contact.threshold): on an
+    affine map s -> A s + b with a spectral radius near 1 (a friction threshold fixed point
+    at the Coulomb limit) it reaches the fixed point in a few steps where the plain update
+    takes hundreds; a changed status key gives a half step towards the target."""
+    from xfemcontact.contact.threshold import ThresholdUpdate
+
+    rng = np.random.default_rng(5)
+    n = 6
+    P = rng.uniform(0.1, 1.0, (n, n))
+    A = 0.97 * P / P.sum(axis=1, keepdims=True)      # non-negative, spectral radius 0.97
+    b = -rng.uniform(1.0, 2.0, n)
+    exact = np.linalg.solve(np.eye(n) - A, b)
+    assert (exact < 0).all()
+    update = ThresholdUpdate(lambda u, v: float(np.dot(u, v)))
+    s = np.full(n, -1.0)
+    s = update(s, A @ s + b, "statuses")             # the first call of a key: a half step
+    assert np.allclose(s, np.minimum(-1.0 + 0.5 * (A @ np.full(n, -1.0) + b + 1.0), 0.0))
+    for k in range(12):
+        s = update(s, A @ s + b, "statuses")
+    assert np.abs(s - exact).max() < 1e-10 * np.abs(exact).max()
+    plain = np.full(n, -1.0)
+    for k in range(12):
+        plain = A @ plain + b
+    assert np.abs(plain - exact).max() > 1e-2 * np.abs(exact).max()

