@@ -23,7 +23,7 @@ import numpy as np
 
 from xfemcontact._petsc import PETSc
 from xfemcontact.contact import gauss_point as claw
-from xfemcontact.xfem import integration
+from xfemcontact.xfem import integration, integration3d
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
@@ -75,18 +75,22 @@ class InterfaceOperator:
         conditions are written at the dofs: no point terms)."""
         self.mesh, self.layout, self.law = mesh, layout, law
         el = mesh.element
-        segs = geo.segments()
-        self.segments = segs
+        self.d = d = mesh.dim
+        self.segments = geo.segments() if d == 2 else None
         self.pts = pts
-        nodes = mesh.cell_nodes[segs.cells]
+        nodes = mesh.cell_nodes[pts.cells]
         self.N = el.shape(self.pts.xi)                                        # (k, ng, nn)
         self.phi = space.functions(el.shape_linear(self.pts.xi))              # (k, ng, m)
         self.enr = geo.enriched[nodes]                                         # (k, nn)
         self.space = space
+        #: (k, ng, d, d - 1) unit tangents (2-D: code_aster's tau; 3-D: t1, t2 of
+        #: :func:`~xfemcontact.xfem.integration3d.tangent_basis`)
+        self.tangents = (pts.tangent[..., None] if d == 2
+                         else integration3d.tangent_basis(pts.normal))
         lam_idx = rep_index                                                    # (k, m) global LAGS_C
-        hg = np.where(self.enr[:, None, :], layout.h_global[nodes].transpose(0, 2, 1), -1)  # (k, 2, nn)
-        self.gidx = np.concatenate([hg.reshape(len(nodes), 2 * el.nn), lam_idx,
-                                    np.where(lam_idx >= 0, lam_idx + 1, -1)], axis=1)
+        hg = np.where(self.enr[:, None, :], layout.h_global[nodes].transpose(0, 2, 1), -1)  # (k, d, nn)
+        self.gidx = np.concatenate([hg.reshape(len(nodes), d * el.nn), lam_idx]
+                                   + [np.where(lam_idx >= 0, lam_idx + c, -1) for c in range(1, d)], axis=1)
         self.nn, self.nv = el.nn, lam_idx.shape[1]
         self._scatter_setup()
 
@@ -122,6 +126,20 @@ class InterfaceOperator:
         lam = np.einsum("kqa,ka->kq", self.phi, lam_v)
         Lam = np.einsum("kqa,ka->kq", self.phi, Lam_v)
         return g, ut, lam, Lam
+
+    def normal_operator(self) -> FloatArray:
+        """``a_n (k, ng, d nn)``: d g / d h, the gap ``g = [u].n`` (m) at the Gauss points
+        as a function of the Heaviside dofs (ordered H1X of the nodes, H1Y, [H1Z])."""
+        return self._project(self.pts.normal)
+
+    def tangential_operators(self) -> list[FloatArray]:
+        """``[a_t (k, ng, d nn)]``, one per tangent (2-D: tau; 3-D: t1, t2): d ([u].t) / d h."""
+        return [self._project(self.tangents[..., c]) for c in range(self.d - 1)]
+
+    def _project(self, v: FloatArray) -> FloatArray:
+        """d ([u].v) / d h for unit vectors ``v (k, ng, d)``: [u] = 2 sum N_j h_j."""
+        N2 = 2.0 * self.N * self.enr[:, None, :]
+        return np.concatenate([N2 * v[..., i:i + 1] for i in range(self.d)], axis=2)
 
     def _operators(self) -> tuple[FloatArray, FloatArray]:
         """``a_n, a_t (k, ng, 2 nn)``: d g / d h and d ut / d h."""

@@ -245,11 +245,11 @@ def interface_samples(model: Model) -> Columns | None:
     (its ends, mid-point and quarter points).  Collective (reads remote dofs).
 
     Returns a dict of flat arrays: x, y (m), cell (input cell id), LAGS_C (Pa),
-    LAGS_F1, contact, sliding; None without multipliers.
+    LAGS_F1, contact, sliding; None without multipliers (and in 3-D).
     """
     problem = model.problem
-    if problem is None or problem.space is None:
-        return None
+    if problem is None or problem.space is None or problem.segments is None:
+        return None                     # 3-D: the post mesh has no interface fields yet
     mesh, el = model.mesh, model.mesh.element
     segs = problem.segments
     xi, x, _ = segment_curve(el, mesh.x[mesh.cell_nodes[segs.cells]], segs.nodes, SEGMENT_POINTS)

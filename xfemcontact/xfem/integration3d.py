@@ -182,3 +182,45 @@ def cut_face_points(el: Element, xc: FloatArray, sub: SubTets, local_face: IntAr
     w = np.tile(we, ns * 4)[None, :] * area * live
     pts = FacetPoints(sub.cells, xi, x, w, n * live[..., None])
     return pts, np.repeat(side, nq, axis=1) * live
+
+
+def concat(parts: list[FacetPoints]) -> FacetPoints:
+    """One :class:`FacetPoints` of the rows of ``parts`` (cut cells, then the cells
+    owning interface faces: :meth:`~xfemcontact.xfem.geometry.Geometry.interface_points`),
+    padded to the largest number of points with zero weights and normals (padding
+    points repeat the row's first point, inside its cell)."""
+    npts = max((p.w.shape[1] for p in parts), default=1)
+
+    def pad(a: FloatArray, fill_first: bool) -> FloatArray:
+        extra = npts - a.shape[1]
+        if extra == 0:
+            return a
+        rep = np.repeat(a[:, :1], extra, axis=1) if fill_first else np.zeros((len(a), extra) + a.shape[2:])
+        return np.concatenate([a, rep], axis=1)
+
+    if not parts:
+        return FacetPoints(np.zeros(0, np.int64), np.zeros((0, 1, 3)), np.zeros((0, 1, 3)), np.zeros((0, 1)),
+                           np.zeros((0, 1, 3)))
+    return FacetPoints(np.concatenate([p.cells for p in parts]),
+                       np.concatenate([pad(p.xi, True) for p in parts]),
+                       np.concatenate([pad(p.x, True) for p in parts]),
+                       np.concatenate([pad(p.w, False) for p in parts]),
+                       np.concatenate([pad(p.normal, False) for p in parts]))
+
+
+def tangent_basis(n: FloatArray) -> FloatArray:
+    """The tangent basis ``(..., 3, 2)`` (columns t1, t2) of unit normals ``n (..., 3)``:
+    t1 the unit projection on the tangent plane of the coordinate axis least aligned
+    with n (the first of equals to 1e-12: e_x for a horizontal plane), t2 = n x t1, so
+    that (t1, t2, n) is right-handed.  Deterministic and constant on a plane; it
+    jumps where the least-aligned axis changes on a curved surface (the tractions
+    T = T1 t1 + T2 t2 do not: only their components).  Zero where n is zero
+    (padding)."""
+    a = np.abs(n)
+    axis = np.argmin(a + 1e-12 * np.arange(3), axis=-1)
+    e = np.eye(3)[axis]
+    t1 = e - np.einsum("...i,...i->...", e, n)[..., None] * n
+    nt = np.linalg.norm(t1, axis=-1, keepdims=True)
+    t1 = np.where(nt > 0, t1 / np.where(nt > 0, nt, 1.0), 0.0)
+    t2 = np.cross(n, t1)
+    return np.stack([t1, t2], axis=-1)
