@@ -578,7 +578,10 @@ class NodalContactProblem(InterfaceProblem):
         if self.unbounded or not np.any(self._mpi.allgather(bool(np.count_nonzero(self.s)))):
             self.s = target                            # the first thresholds
         else:
-            key = (self._fingerprint(self.chi), self._fingerprint(self.slip), self.extrapolated.tobytes())
+            # the statuses the acceleration's history is valid for (3-D: which dofs slip,
+            # not their directions, which move by round-off from one solve to the next)
+            slip = self.slip if self._nf == 1 else np.where(self._fold(self.slip != 0), 1.0, 0.0)
+            key = (self._fingerprint(self.chi), self._fingerprint(slip), self.extrapolated.tobytes())
             self.s = self._accelerated(self.s, target, key)
         self.unbounded = self.free_start = False
         self._set_rho_T(self._max(self.s))
