@@ -339,7 +339,8 @@ class Model:
         v = self.interface_values()
         if v is None:
             return {}
-        return {"interface": Samples(v["x"], v["y"], {k: v[k] for k in ("LAGS_C", "LAGS_F1", "gap", "slip")})}
+        return {"interface": Samples(v["x"], v["y"], {k: v[k] for k in ("LAGS_C", "LAGS_F1", "gap", "slip")},
+                                     v.get("z"))}
 
     def displacement(self) -> FloatArray:
         """``(n, 2)`` DX, DY at this process's nodes, m."""

@@ -85,8 +85,11 @@ class InterfaceOperator:
         self.space = space
         #: (k, ng, d, d - 1) unit tangents (2-D: code_aster's tau; 3-D: t1, t2 of
         #: :func:`~xfemcontact.xfem.integration3d.tangent_basis`)
-        self.tangents = (pts.tangent[..., None] if d == 2
-                         else integration3d.tangent_basis(pts.normal))
+        if d == 2:
+            self.tangents = pts.tangent[..., None]
+        else:
+            axis = integration3d.interface_axis(pts.normal, pts.w, mesh.comm.tompi4py())
+            self.tangents = integration3d.tangent_basis(pts.normal, axis)
         lam_idx = rep_index                                                    # (k, m) global LAGS_C
         hg = np.where(self.enr[:, None, :], layout.h_global[nodes].transpose(0, 2, 1), -1)  # (k, d, nn)
         self.gidx = np.concatenate([hg.reshape(len(nodes), d * el.nn), lam_idx]

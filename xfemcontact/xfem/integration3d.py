@@ -208,19 +208,42 @@ def concat(parts: list[FacetPoints]) -> FacetPoints:
                        np.concatenate([pad(p.normal, False) for p in parts]))
 
 
-def tangent_basis(n: FloatArray) -> FloatArray:
+#: a point's tangent t1 comes from the interface's axis unless the normal is within this
+#: (the sine of the angle) of it; then from the next axis (a cap of about 6 degrees)
+POLE = 0.1
+
+
+def interface_axis(n: FloatArray, weights: FloatArray, comm: object | None = None) -> int:
+    """The coordinate axis (0, 1, 2) least aligned with the interface: the smallest
+    largest |n_i| over the points of non-zero weight (of every process when ``comm``,
+    an mpi4py communicator, is given), the first of equals to 1e-12."""
+    live = weights != 0
+    big = np.abs(n[live]).max(axis=0, initial=0.0) if live.any() else np.zeros(3)
+    if comm is not None:
+        from mpi4py import MPI
+
+        big = comm.allreduce(big, op=MPI.MAX)
+    return int(np.argmin(np.asarray(big) + 1e-12 * np.arange(3)))
+
+
+def tangent_basis(n: FloatArray, axis: int = 0) -> FloatArray:
     """The tangent basis ``(..., 3, 2)`` (columns t1, t2) of unit normals ``n (..., 3)``:
-    t1 the unit projection on the tangent plane of the coordinate axis least aligned
-    with n (the first of equals to 1e-12: e_x for a horizontal plane), t2 = n x t1, so
-    that (t1, t2, n) is right-handed.  Deterministic and constant on a plane; it
-    jumps where the least-aligned axis changes on a curved surface (the tractions
-    T = T1 t1 + T2 t2 do not: only their components).  Zero where n is zero
-    (padding)."""
-    a = np.abs(n)
-    axis = np.argmin(a + 1e-12 * np.arange(3), axis=-1)
-    e = np.eye(3)[axis]
-    t1 = e - np.einsum("...i,...i->...", e, n)[..., None] * n
-    nt = np.linalg.norm(t1, axis=-1, keepdims=True)
+    t1 the unit projection of the coordinate axis ``axis`` (:func:`interface_axis`) on
+    the tangent plane, t2 = n x t1, so that (t1, t2, n) is right-handed.  Where the
+    normal is within :data:`POLE` of the axis, the next axis (``axis + 1`` mod 3) is
+    projected instead.  Deterministic, constant on a plane, continuous on a curved
+    surface except across the edge of those caps (no tangent field of a sphere is
+    continuous everywhere).  Zero where n is zero (padding)."""
+    def projected(ax: int) -> tuple[FloatArray, FloatArray]:
+        e = np.zeros(3)
+        e[ax] = 1.0
+        t = e - n[..., ax:ax + 1] * n
+        return t, np.linalg.norm(t, axis=-1, keepdims=True)
+
+    t1, nt = projected(axis)
+    t1b, ntb = projected((axis + 1) % 3)
+    pole = nt < POLE
+    t1, nt = np.where(pole, t1b, t1), np.where(pole, ntb, nt)
     t1 = np.where(nt > 0, t1 / np.where(nt > 0, nt, 1.0), 0.0)
     t2 = np.cross(n, t1)
     return np.stack([t1, t2], axis=-1)
