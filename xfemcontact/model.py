@@ -163,6 +163,7 @@ class Model:
         if geo is not None and mesh.dim == 3 and law is not None and law.multipliers:
             points = integration3d.concat(geo.interface_points(mesh, INTERFACE_DEGREE_3D))
             space = law.multiplier_space(mesh, geo, points, self.case)
+            assert space is not None                # a law with multipliers gives its space
             multiplier = space.carriers(mesh)
         elif geo is not None and mesh.dim == 2:
             assert law is not None                  # an interface has its law

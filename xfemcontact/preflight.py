@@ -292,7 +292,7 @@ def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -
                                     f"({ctr[0]:.6g}, {ctr[1]:.6g}, {ctr[2]:.6g}): the interface must be "
                                     f"a surface with LN < 0 on one side and LN > 0 on the other")
     on_interface = [t for t in case.tests if t.kind == "interface"]
-    if phi is not None and on_interface and not laws.get(itf.law).multipliers:
+    if phi is not None and on_interface and itf is not None and not laws.get(itf.law).multipliers:
         t = on_interface[0]
         raise CaseError(f"{case.source}: test '{t.name}': the interface fields (LAGS_C, LAGS_F1, gap, "
                         f"slip) are not there in 3-D yet: test DX, DY, DZ and the stresses")

@@ -34,6 +34,7 @@ if TYPE_CHECKING:
     from xfemcontact.mesh.plex import LocalMesh
     from xfemcontact.xfem.geometry import Geometry
     from xfemcontact.xfem.integration import SegmentPoints
+    from xfemcontact.xfem.integration3d import FacetPoints
 
     FloatArray = NDArray[np.float64]
     IntArray = NDArray[np.int64]
@@ -68,8 +69,9 @@ class InterfaceOperator:
     documentation)."""
 
     def __init__(self, mesh: LocalMesh, geo: Geometry, layout: DofLayout, space: MultiplierSpace,
-                 rep_index: IntArray, law: PointLaw | None, pts: SegmentPoints) -> None:
-        """``pts``: :class:`integration.SegmentPoints` of ``geo.segments()``; ``rep_index``
+                 rep_index: IntArray, law: PointLaw | None, pts: SegmentPoints | FacetPoints) -> None:
+        """``pts``: :class:`integration.SegmentPoints` of ``geo.segments()`` (3-D: the
+        facets' :class:`integration3d.FacetPoints`); ``rep_index``
         ``(k, m)``: global LAGS_C index of the carriers of each segment cell (-1 pad);
         ``law``: the :class:`~xfemcontact.contact.gauss_point.PointLaw` (None when the
         conditions are written at the dofs: no point terms)."""
@@ -85,7 +87,7 @@ class InterfaceOperator:
         self.space = space
         #: (k, ng, d, d - 1) unit tangents (2-D: code_aster's tau; 3-D: t1, t2 of
         #: :func:`~xfemcontact.xfem.integration3d.tangent_basis`)
-        if d == 2:
+        if isinstance(pts, integration.SegmentPoints):            # 2-D
             self.tangents = pts.tangent[..., None]
         else:
             axis = integration3d.interface_axis(pts.normal, pts.w, mesh.comm.tompi4py())
@@ -123,7 +125,7 @@ class InterfaceOperator:
         lam_v, Lam_v = ve[:, 2 * nn:2 * nn + nv], ve[:, 2 * nn + nv:]
         jx = 2.0 * np.einsum("kqa,ka->kq", self.N, hx)
         jy = 2.0 * np.einsum("kqa,ka->kq", self.N, hy)
-        n, t = self.pts.normal, self.pts.tangent
+        n, t = self.pts.normal, self.tangents[..., 0]
         g = jx * n[..., 0] + jy * n[..., 1]
         ut = jx * t[..., 0] + jy * t[..., 1]
         lam = np.einsum("kqa,ka->kq", self.phi, lam_v)
@@ -147,7 +149,7 @@ class InterfaceOperator:
     def _operators(self) -> tuple[FloatArray, FloatArray]:
         """``a_n, a_t (k, ng, 2 nn)``: d g / d h and d ut / d h."""
         N2 = 2.0 * self.N * self.enr[:, None, :]
-        n, t = self.pts.normal, self.pts.tangent
+        n, t = self.pts.normal, self.tangents[..., 0]
         a_n = np.concatenate([N2 * n[..., :1], N2 * n[..., 1:]], axis=2)
         a_t = np.concatenate([N2 * t[..., :1], N2 * t[..., 1:]], axis=2)
         return a_n, a_t
@@ -235,6 +237,7 @@ class InterfaceOperator:
         from xfemcontact.fem.elements import Seg3
 
         mesh, el, segs = self.mesh, self.mesh.element, self.segments
+        assert segs is not None                  # 2-D (3-D: NodalContactProblem.facet_values)
         ve = self.element_values(x)
         nn = self.nn
         xc = mesh.x[mesh.cell_nodes[segs.cells]]

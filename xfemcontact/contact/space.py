@@ -121,6 +121,8 @@ KERNEL = {"QUAD8": 1e-3, "TRIA6": 1e-10}
 #: axis-aligned plane half of the vertex values are a kernel), tied like the weak
 #: packets of quadrangles; TETRA10: only true kernels (the signed distance of a plane)
 KERNEL_3D = {"HEXA20": 1e-3, "TETRA10": 1e-10}
+#: 3-D: a vertex function whose largest value on the interface is at most this is zero there
+ZERO_TRACE = 1e-12
 #: below this a packet is singular (straight interface): its ties stay merges
 SINGULAR = 1e-10
 
@@ -255,9 +257,11 @@ def _raw_space(mesh: LocalMesh, topo: SegmentTopology, local_w: FloatArray,
     ext = _aggregation(el, ids, xv, strong, cverts, cx)          # weak id -> (root ids, weights)
     if mesh.dim == 3 and not ext and not strong.all():
         # no interface cell has all its vertices strong (a plane through vertices of a
-        # few cells): the weak vertices stay carriers, and the merges of the kernel
-        # step remove their weak modes (dropped, they left constants out of the space)
-        strong = np.ones(len(ids), bool)
+        # few cells): the weak vertices whose functions are not zero on the interface
+        # stay carriers, and the merges of the kernel step remove their weak modes
+        # (dropped, they left constants out of the space); those whose functions are
+        # zero there (the far vertices of a cell owning an interface face) carry nothing
+        strong = weight > ZERO_TRACE
     carriers = ids[strong]
     carriers_of, T = _cell_maps(topo, el.nv, strong, ids, ext)
     T_convex = _cell_maps(topo, el.nv, strong, ids, convex_aggregation(ext, xv, ids))[1]

@@ -51,7 +51,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike, NDArray
 
     from xfemcontact.model import Model
-    from xfemcontact.xfem.integration import CellPoints
+    from xfemcontact.xfem.integration import CellPoints, SegmentPoints
 
     FloatArray = NDArray[np.float64]
     IntArray = NDArray[np.int64]
@@ -253,7 +253,8 @@ def interface_samples(model: Model) -> Columns | None:
     mesh, el = model.mesh, model.mesh.element
     segs = problem.segments
     xi, x, _ = segment_curve(el, mesh.x[mesh.cell_nodes[segs.cells]], segs.nodes, SEGMENT_POINTS)
-    near = np.argmin(np.abs(problem.points.s[None, :] - SEGMENT_POINTS[:, None]), axis=1)   # (5,)
+    pts = cast("SegmentPoints", problem.points)          # 2-D: a segments' problem
+    near = np.argmin(np.abs(pts.s[None, :] - SEGMENT_POINTS[:, None]), axis=1)   # (5,)
     v = problem.segment_values(model.x, xi, near)
     if v is None:                       # no multipliers (not a contact problem)
         return None

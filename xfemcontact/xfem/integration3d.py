@@ -18,7 +18,7 @@ weights (and a point inside the parent).
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -213,7 +213,7 @@ def concat(parts: list[FacetPoints]) -> FacetPoints:
 POLE = 0.1
 
 
-def interface_axis(n: FloatArray, weights: FloatArray, comm: object | None = None) -> int:
+def interface_axis(n: FloatArray, weights: FloatArray, comm: Any = None) -> int:
     """The coordinate axis (0, 1, 2) least aligned with the interface: the smallest
     largest |n_i| over the points of non-zero weight (of every process when ``comm``,
     an mpi4py communicator, is given), the first of equals to 1e-12."""
@@ -222,7 +222,8 @@ def interface_axis(n: FloatArray, weights: FloatArray, comm: object | None = Non
     if comm is not None:
         from mpi4py import MPI
 
-        big = comm.allreduce(big, op=MPI.MAX)
+        big = np.array(big, dtype=float)
+        comm.Allreduce(MPI.IN_PLACE, big, op=MPI.MAX)
     return int(np.argmin(np.asarray(big) + 1e-12 * np.arange(3)))
 
 
@@ -244,6 +245,7 @@ def tangent_basis(n: FloatArray, axis: int = 0) -> FloatArray:
     t1b, ntb = projected((axis + 1) % 3)
     pole = nt < POLE
     t1, nt = np.where(pole, t1b, t1), np.where(pole, ntb, nt)
-    t1 = np.where(nt > 0, t1 / np.where(nt > 0, nt, 1.0), 0.0)
+    live = np.linalg.norm(n, axis=-1, keepdims=True) > 0
+    t1 = np.where(live & (nt > 0), t1 / np.where(nt > 0, nt, 1.0), 0.0)
     t2 = np.cross(n, t1)
     return np.stack([t1, t2], axis=-1)
