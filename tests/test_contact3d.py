@@ -231,7 +231,7 @@ def test_coulomb_uniform_stress(tmp_path, null_pivot_detection, cell, plane, kin
 
 # -- command line, processes -----------------------------------------------------------------
 VALIDATION = ("box_plane_contact_hexa20", "box_plane_opening_tetra10", "box_incline_stick_hexa20",
-              "box_incline_slip_tetra10")
+              "box_incline_slip_tetra10", "box_sphere_stick_tetra10")
 
 
 @pytest.mark.parametrize("name", VALIDATION)
@@ -271,3 +271,18 @@ def test_processes_give_the_answer_of_one(tmp_path, name):
             # gap and slip: on the scale of the displacements (1e-4 m; the gap is round-off)
             scale = max(np.abs(one[key]).max(), 1e-4 if key in ("gap", "slip") else 1e-300)
             assert np.abs(one[key] - other[key]).max() <= rel * scale, key
+
+
+def test_what_3d_contact_does_not_do_is_refused_on_one_line(tmp_path):
+    """code_aster's Gauss-point form and load histories: exit code 2, one line."""
+    base = (ROOT / "cases" / "validation" / "box_plane_opening_tetra10.toml").read_text()
+    edits = {"gauss": (base.replace('frottement = "SANS"', 'frottement = "SANS"\nintegration = "GAUSS"'),
+                       '"GAUSS" is not there in 3-D yet'),
+             "instants": (base.replace("[interface]", "[instants]\nranges = [{ start = 0.0, end = 1.0, steps = 2 }]"
+                                                      "\n\n[interface]"),
+                          "load histories with contact are not there in 3-D yet")}
+    for name, (text, fragment) in edits.items():
+        done = run_cli(["run", write_case(tmp_path, text, f"{name}.toml"), "-o", tmp_path / name])
+        assert done.returncode == 2, done.stderr
+        lines = [line for line in done.stderr.splitlines() if line.strip()]
+        assert len(lines) == 1 and fragment in lines[0], done.stderr
