@@ -286,3 +286,23 @@ def test_what_3d_contact_does_not_do_is_refused_on_one_line(tmp_path):
         assert done.returncode == 2, done.stderr
         lines = [line for line in done.stderr.splitlines() if line.strip()]
         assert len(lines) == 1 and fragment in lines[0], done.stderr
+
+
+def test_friction_direction_rule():
+    """The vector rule: a sticking dof slips along the trial traction beyond the bound; a
+    slipping dof follows the trial traction while its component along the slip reaches
+    the bound, and sticks when it points back (no direct reversal); unbounded and
+    inactive dofs stick, without NaN warnings."""
+    from xfemcontact.contact import nodal
+
+    p = np.array([[0.0, 0.0], [0.0, 0.0], [0.6, 0.8], [0.6, 0.8], [0.0, 0.0], [1.0, 0.0]])
+    T = np.array([[3.0, 4.0], [30.0, 40.0], [30.0, 40.0], [-30.0, -40.0], [300.0, 400.0], [3.0, 0.0]])
+    gt = np.zeros((6, 2))
+    bound = np.array([10.0, 10.0, 50.0, 50.0, np.inf, 1.0])
+    active = np.array([True, True, True, True, True, False])
+    with np.errstate(all="raise"):
+        new = nodal.friction_direction(p, active, T, gt, bound, 1e3)
+    assert np.allclose(new, [[0, 0], [0.6, 0.8], [0.6, 0.8], [0, 0], [0, 0], [0, 0]])
+    turned = nodal.friction_direction(np.array([[1.0, 0.0]]), active[2:3], np.array([[50.0, 0.0]]),
+                                      np.array([[0.0, 0.01]]), bound[2:3], 1e3)
+    assert np.allclose(turned, [[50.0, 10.0]] / np.hypot(50.0, 10.0))

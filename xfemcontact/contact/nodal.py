@@ -155,11 +155,12 @@ def friction_direction(p: FloatArray, active: BoolArray, T: FloatArray, gt: Floa
     otherwise (no direct reversal).  Round-off bands as in :func:`friction_status`."""
     trial = T + rho_T * gt
     mag = np.linalg.norm(trial, axis=-1)
-    band = bound * ROUNDOFF + rho_T * tol_slip
-    with np.errstate(invalid="ignore"):
-        unit = np.where((mag > 0)[..., None], trial / np.where(mag > 0, mag, 1.0)[..., None], 0.0)
-        starts = mag > bound + band
-        goes_on = np.einsum("...c,...c->...", p, trial) >= bound - band
+    finite = np.isfinite(bound)                 # unbounded: every active dof sticks
+    b = np.where(finite, bound, 0.0)
+    band = b * ROUNDOFF + rho_T * tol_slip
+    unit = np.where((mag > 0)[..., None], trial / np.where(mag > 0, mag, 1.0)[..., None], 0.0)
+    starts = finite & (mag > b + band)
+    goes_on = finite & (np.einsum("...c,...c->...", p, trial) >= b - band)
     sliding = np.any(p != 0, axis=-1)
     new = np.where(sliding, goes_on, starts) & active
     return np.where(new[..., None], unit, 0.0)
