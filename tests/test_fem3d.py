@@ -602,13 +602,15 @@ def test_clamped_nodes_held_on_every_process(tmp_path, np_):
 
 
 def test_cutting_level_set_is_refused_on_one_line(tmp_path):
-    """A level set cutting a 3-D mesh with the default law (contact): refused on one line
-    (laws free and bonded run: tests/test_xfem3d_bulk.py)."""
-    text = MPI_CASE.replace("CELL", "HEXA20") + '\n[interface]\nlevel_set = "z - 1.1"\n'
+    """A level set cutting a 3-D mesh with the contact law in code_aster's Gauss-point
+    form: refused on one line (contact at the dofs, free and bonded run:
+    tests/test_contact3d.py, tests/test_xfem3d_bulk.py)."""
+    text = (MPI_CASE.replace("CELL", "HEXA20") + '\n[interface]\nlevel_set = "z - 1.1"\n'
+            '\n[contact]\nintegration = "GAUSS"\n')
     done = run_cli(["run", write_case(tmp_path, text), "-o", tmp_path / "out"])
     assert done.returncode == 2
     lines = [line for line in done.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1 and "contact and friction in 3-D are not there yet" in lines[0], done.stderr
+    assert len(lines) == 1 and '"GAUSS" is not there in 3-D yet' in lines[0], done.stderr
     text = MPI_CASE.replace("CELL", "HEXA20") + '\n[interface]\nlevel_set = "z + 1"\n'
     done = run_cli(["run", write_case(tmp_path, text), "-o", tmp_path / "out2"])
     assert done.returncode == 0 and "does not meet the domain" in done.stderr, done.stderr

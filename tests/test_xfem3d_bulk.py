@@ -8,7 +8,7 @@
   loaded on its own: each side gets its exact field, and the jump across the interface
   is the difference of the two;
 * the volumes of the sides from the assembled quadrature are exact for planar cuts;
-* 2 and 3 processes give the answer of one; contact in 3-D is refused on one line; the
+* 2 and 3 processes give the answer of one; GAUSS contact in 3-D is refused on one line; the
   rigid-body check knows the two sides of a free interface.
 """
 import numpy as np
@@ -269,12 +269,14 @@ def test_processes_give_the_one_process_answer(tmp_path, name):
                 assert np.abs(ref[k] - b[k][()]).max() <= 1e-10 * scale
 
 
-def test_contact_in_3d_is_refused_on_one_line(tmp_path):
-    text = cube("HEXA20", CUTS["inclined"], "contact", IMPOSED)
+def test_gauss_contact_in_3d_is_refused_on_one_line(tmp_path):
+    """Contact in 3-D runs with the conditions at the dofs (tests/test_contact3d.py);
+    code_aster's Gauss-point form is refused on one line."""
+    text = cube("HEXA20", CUTS["inclined"], "contact", IMPOSED) + '\n[contact]\nintegration = "GAUSS"\n'
     done = run_cli(["run", write_case(tmp_path, text), "-o", tmp_path / "out"])
     assert done.returncode == 2
     lines = [line for line in done.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1 and "contact and friction in 3-D are not there yet" in lines[0], done.stderr
+    assert len(lines) == 1 and '"GAUSS" is not there in 3-D yet' in lines[0], done.stderr
 
 
 def test_interface_fields_in_3d_are_refused_on_one_line(tmp_path):

@@ -35,7 +35,7 @@ from xfemcontact.post import fields
 from xfemcontact.solver.newton import matrix_format
 from xfemcontact.solver.nonlinear import NonlinearSolver
 from xfemcontact.timing import phase, release_heap
-from xfemcontact.xfem import geometry, integration, levelset
+from xfemcontact.xfem import geometry, integration, integration3d, levelset
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
@@ -49,11 +49,17 @@ if TYPE_CHECKING:
     from xfemcontact.post.testtable import Samples
     from xfemcontact.xfem.geometry import Geometry
     from xfemcontact.xfem.integration import SegmentPoints
+    from xfemcontact.xfem.integration3d import FacetPoints
 
     FloatArray = NDArray[np.float64]
     IntArray = NDArray[np.int64]
 
 __all__ = ["Model", "build_raw_mesh"]
+
+#: degree of the triangle rule on the 3-D interface facets of a contact interface (exact
+#: for the products of the vertex functions with the jump on planar cuts of affine
+#: TETRA10 cells, and for the lumped weights int phi_a dA of HEXA20's trilinear phi_a)
+INTERFACE_DEGREE_3D = 4
 
 
 class Model:
@@ -140,8 +146,9 @@ class Model:
         if missed:                       # no interface in the domain: solve without one
             self.warnings.append(missed)
             return None
-        if mesh.dim == 3 and laws.get(itf.law).multipliers:    # preflight refuses it first
-            raise CaseError(preflight.contact_3d_refusal(self.case.source))
+        refusal = preflight.contact_3d_refusal(self.case) if mesh.dim == 3 else None
+        if refusal:                                            # preflight refuses it first
+            raise CaseError(refusal)
         return geometry.build(mesh, phi)
 
     def _layout(self) -> None:
@@ -152,19 +159,24 @@ class Model:
         enriched = geo.enriched if geo is not None else np.zeros(len(x), bool)
         multiplier = np.zeros(len(x), bool)
         space: MultiplierSpace | None = None
-        points: SegmentPoints | None = None
-        if geo is not None and mesh.dim == 2:
+        points: SegmentPoints | FacetPoints | None = None
+        if geo is not None and mesh.dim == 3 and law is not None and law.multipliers:
+            points = integration3d.concat(geo.interface_points(mesh, INTERFACE_DEGREE_3D))
+            space = law.multiplier_space(mesh, geo, points, self.case)
+            assert space is not None                # a law with multipliers gives its space
+            multiplier = space.carriers(mesh)
+        elif geo is not None and mesh.dim == 2:
             assert law is not None                  # an interface has its law
             segs = geo.segments()
             xc = x[mesh.cell_nodes[segs.cells]]
             points = integration.segment_points(mesh.element, xc, segs, self._interface_order(xc),
                                                 mesh.cell_ids[segs.cells])
-            space = law.multiplier_space(mesh, segs, points, self.case)
+            space = law.multiplier_space(mesh, geo, points, self.case)
             if space is not None:
                 multiplier = space.carriers(mesh)
         self.layout = DofLayout(mesh, enriched, multiplier, fixed)
         self.x_bc = system.bc_array(self.layout, fixed, values)
-        self.problem = None               # 3-D (free, bonded): no interface terms, no interface values
+        self.problem = None               # 3-D free, bonded: no interface terms, no interface values
         if geo is not None and points is not None:
             assert law is not None                              # set above
             self.problem = law.problem(InterfaceSetup(mesh, geo, self.layout, points, space, self.case))
@@ -328,7 +340,8 @@ class Model:
         v = self.interface_values()
         if v is None:
             return {}
-        return {"interface": Samples(v["x"], v["y"], {k: v[k] for k in ("LAGS_C", "LAGS_F1", "gap", "slip")})}
+        return {"interface": Samples(v["x"], v["y"], {k: v[k] for k in ("LAGS_C", "LAGS_F1", "gap", "slip")},
+                                     v.get("z"))}
 
     def displacement(self) -> FloatArray:
         """``(n, 2)`` DX, DY at this process's nodes, m."""

@@ -282,8 +282,8 @@ def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -
             result.warnings.append(warning)
             result.interface = False
             phi = None
-        elif laws.get(itf.law).multipliers:
-            raise CaseError(contact_3d_refusal(case.source))
+        elif contact_3d_refusal(case):
+            raise CaseError(str(contact_3d_refusal(case)))
         else:
             flat = np.flatnonzero(~(phi[raw.cells] != 0).any(axis=1))
             if len(flat):
@@ -292,7 +292,7 @@ def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -
                                     f"({ctr[0]:.6g}, {ctr[1]:.6g}, {ctr[2]:.6g}): the interface must be "
                                     f"a surface with LN < 0 on one side and LN > 0 on the other")
     on_interface = [t for t in case.tests if t.kind == "interface"]
-    if phi is not None and on_interface:
+    if phi is not None and on_interface and itf is not None and not laws.get(itf.law).multipliers:
         t = on_interface[0]
         raise CaseError(f"{case.source}: test '{t.name}': the interface fields (LAGS_C, LAGS_F1, gap, "
                         f"slip) are not there in 3-D yet: test DX, DY, DZ and the stresses")
@@ -303,10 +303,20 @@ def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -
     return result
 
 
-def contact_3d_refusal(source: str) -> str:
-    """The one line refusing an interface law with multipliers (contact, friction) in 3-D."""
-    return (f"{source}: interface.law: contact and friction in 3-D are not there yet "
-            f"(3-D interfaces take law = \"bonded\" or \"free\")")
+def contact_3d_refusal(case: Case) -> str | None:
+    """The one line refusing what contact in 3-D does not do yet (None: nothing refused):
+    code_aster's Gauss-point form (``integration = "GAUSS"``) and load histories
+    (``[instants]``) with contact."""
+    itf = case.interface
+    if itf is None or not laws.get(itf.law).multipliers:
+        return None
+    if case.contact.integration == "GAUSS":
+        return (f"{case.source}: contact.integration: \"GAUSS\" is not there in 3-D yet "
+                f"(3-D contact takes integration = \"NOEUD\", the default)")
+    if case.instants.given:
+        return (f"{case.source}: instants: load histories with contact are not there in 3-D yet "
+                f"(3-D contact is solved in one step: remove [instants])")
+    return None
 
 
 # --- groups ------------------------------------------------------------------------------

@@ -5,6 +5,7 @@ vertices that may be owned by another process (merged vertices share the dof
 of their representative).  This module finds the global LAGS_C index of every
 carrier (LAGS_F1 is the next index) and, for the matrix pattern, the point of
 each carrier: a local node, or a "remote point" numbered after the local nodes.
+In 3-D a carrier holds LAGS_C, LAGS_F1, LAGS_F2 (the next two indices).
 """
 from __future__ import annotations
 
@@ -19,7 +20,6 @@ if TYPE_CHECKING:
     from xfemcontact.contact.space import MultiplierSpace
     from xfemcontact.dofs.layout import DofLayout
     from xfemcontact.mesh.plex import LocalMesh
-    from xfemcontact.xfem.cut import Segments
 
     IntArray = NDArray[np.int64]
 
@@ -35,8 +35,10 @@ class MultiplierDofs:
 
 
 def multiplier_dofs(mesh: LocalMesh, layout: DofLayout, space: MultiplierSpace,
-                    segments: Segments) -> MultiplierDofs:
-    """The :class:`MultiplierDofs` of the interface ``segments`` (collective)."""
+                    cells: IntArray) -> MultiplierDofs:
+    """The :class:`MultiplierDofs` of the interface elements of the local ``cells (k,)``
+    (one row per element: the cells of the segments in 2-D, of the facets in 3-D;
+    collective)."""
     own = layout.multiplier & mesh.node_owned
     mpi = mesh.comm.tompi4py()
     parts = mpi.allgather((mesh.node_ids[own], layout.lag_global[own, 0]))
@@ -64,6 +66,6 @@ def multiplier_dofs(mesh: LocalMesh, layout: DofLayout, space: MultiplierSpace,
     remote_ids, rpos = np.unique(rep[~local & live], return_inverse=True)
     point[~local & live] = len(mesh.x) + rpos
     rp = np.searchsorted(ids, remote_ids)
-    remote = (idx[rp], np.full(len(rp), 2), owner[rp])
-    points = np.concatenate([mesh.cell_nodes[segments.cells], point], axis=1)
+    remote = (idx[rp], np.full(len(rp), mesh.dim), owner[rp])      # LAGS_C, LAGS_F1, [LAGS_F2]
+    points = np.concatenate([mesh.cell_nodes[cells], point], axis=1)
     return MultiplierDofs(rep_index, remote, points)

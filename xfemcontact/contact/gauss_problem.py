@@ -58,7 +58,7 @@ class GaussContactProblem(InterfaceProblem):
         self.comm = mesh.comm
         self.warnings = []
         self.segments, self.points, self.space = setup.geo.segments(), setup.points, setup.space
-        dofs = multiplier_dofs(mesh, setup.layout, setup.space, self.segments)
+        dofs = multiplier_dofs(mesh, setup.layout, setup.space, self.segments.cells)
         self.rep_index = dofs.rep_index
         self.pattern_points, self.remote_points = dofs.element_points, dofs.remote_points
         unknown = options.get("friction_unknown", c.friction_unknown)      # -xfc_friction_unknown, checked

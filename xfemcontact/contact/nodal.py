@@ -111,8 +111,14 @@ def friction_status(slip: FloatArray, active: BoolArray, T: FloatArray, gt: Floa
 
 
 def terms(chi: IntArray, slip: FloatArray, active: BoolArray, lam: FloatArray, T: FloatArray,
-          bound: FloatArray, D: FloatArray, rho_n: float, rho_T: float) -> dict[str, FloatArray]:
+          bound: FloatArray, D: FloatArray, rho_n: float, rho_T: float, D_T: FloatArray | None = None,
+          sliding: BoolArray | None = None) -> dict[str, FloatArray]:
     """Coefficients of the nodal equations for given statuses.
+
+    The friction arguments (``slip``, ``active``, ``T``, ``bound``) may be per friction
+    component (3-D: ``(k, 2 m)``, the components of the slip direction p and of T in
+    the tangent basis; ``D_T`` the weights there, default ``D``; ``sliding`` which of
+    them belong to a slipping dof, default ``slip != 0``).
 
     Returns a dict of arrays: ``cn``, ``ct`` (Pa): the normal and tangential
     tractions of the dof in the equilibrium (they multiply d(D gn) and d(D gt));
@@ -121,8 +127,9 @@ def terms(chi: IntArray, slip: FloatArray, active: BoolArray, lam: FloatArray, T
     inactive and slipping dofs); ``kl``, ``kT``: d rl / d lam, d rT / d T.
     """
     on = chi.astype(bool)
-    stick = active & (slip == 0)
-    slips = active & (slip != 0)
+    slips = active & (slip != 0) if sliding is None else active & sliding
+    stick = active & ~slips
+    DT = D if D_T is None else D_T
     fixed = np.where(slips, np.where(np.isfinite(bound), bound, 0.0) * slip, 0.0)
     return {
         "cn": np.where(on, lam, 0.0),
@@ -131,9 +138,34 @@ def terms(chi: IntArray, slip: FloatArray, active: BoolArray, lam: FloatArray, T
         "kl": np.where(on, 0.0, -D / rho_n),
         "ct": np.where(stick, T, fixed),
         "wt": stick.astype(float),
-        "rT": np.where(stick, 0.0, D * (T - fixed) / rho_T),
-        "kT": np.where(stick, 0.0, D / rho_T),
+        "rT": np.where(stick, 0.0, DT * (T - fixed) / rho_T),
+        "kT": np.where(stick, 0.0, DT / rho_T),
     }
+
+
+def friction_direction(p: FloatArray, active: BoolArray, T: FloatArray, gt: FloatArray,
+                       bound: FloatArray, rho_T: float, tol_slip: float = 0.0) -> FloatArray:
+    """3-D: new friction statuses ``(..., 2)`` of dofs with statuses ``p (..., 2)`` (zero:
+    stick; a unit vector of the tangent plane: slip in that direction), the rule of
+    :func:`friction_status` for vectors.  ``T`` (Pa) and ``gt`` (m), ``(..., 2)``: the
+    traction and the mean slip in the tangent basis; ``active``, ``bound`` ``(...)``.
+    With the trial traction ``T + rho_T gt``: a sticking dof slips, in the direction of
+    the trial traction, where its magnitude exceeds the bound; a slipping dof goes on
+    slipping, in the trial traction's direction (the slip direction is a status
+    updated at each Newton iteration, so that each Newton step is linear), while the
+    trial traction's component along its direction reaches the bound, and sticks
+    otherwise (no direct reversal).  Round-off bands as in :func:`friction_status`."""
+    trial = T + rho_T * gt
+    mag = np.linalg.norm(trial, axis=-1)
+    finite = np.isfinite(bound)                 # unbounded: every active dof sticks
+    b = np.where(finite, bound, 0.0)
+    band = b * ROUNDOFF + rho_T * tol_slip
+    unit = np.where((mag > 0)[..., None], trial / np.where(mag > 0, mag, 1.0)[..., None], 0.0)
+    starts = finite & (mag > b + band)
+    goes_on = finite & (np.einsum("...c,...c->...", p, trial) >= b - band)
+    sliding = np.any(p != 0, axis=-1)
+    new = np.where(sliding, goes_on, starts) & active
+    return np.where(new[..., None], unit, 0.0)
 
 
 def threshold(lam: FloatArray, scale: float) -> FloatArray:

@@ -86,6 +86,14 @@ MAX_FLIPS = 3
 #: COEF_FROT, 1e-4 times its natural scale took 126 Newton iterations where the natural one
 #: took 33); measured flat from 1e2 to 1e8 on the campaign's slowest cases
 STATUS_SCALE = 1e4
+#: 3-D: a slip direction (unit vector in the tangent plane) whose components moved by at
+#: most this is the same status and is not updated (a direction from a trial traction
+#: carries the round-off of the slips: measured up to a few 1e-11 on 3 processes)
+DIRECTION_CHANGE = 3e-11
+#: 3-D: Newton's statuses have settled when no direction moves by more than this (above
+#: the round-off, so that Newton does not chase it; the directions it ends with are within
+#: this of their limit, and LAGS_C within about 1e-10 of its scale: tests/test_contact3d.py)
+DIRECTION_SETTLED = 1e-10
 
 
 class NodalContactProblem(InterfaceProblem):
@@ -111,8 +119,9 @@ class NodalContactProblem(InterfaceProblem):
         mesh, c = setup.mesh, setup.case.contact
         self.comm = mesh.comm
         self._mpi = self.comm.tompi4py()
-        self.segments, self.points, self.space = setup.geo.segments(), setup.points, setup.space
-        dofs = multiplier_dofs(mesh, setup.layout, setup.space, self.segments)
+        self.segments = setup.geo.segments() if mesh.dim == 2 else None
+        self.points, self.space = setup.points, setup.space
+        dofs = multiplier_dofs(mesh, setup.layout, setup.space, setup.points.cells)
         self.rep_index = dofs.rep_index
         self.pattern_points, self.remote_points = dofs.element_points, dofs.remote_points
         self.mu, self.friction = c.coulomb, c.friction
@@ -122,8 +131,10 @@ class NodalContactProblem(InterfaceProblem):
         self.indices = op.gidx
         self.phi = op.phi
         self.law = None
-        self._nh, self._m = 2 * op.nn, op.nv
+        self._nh, self._m = op.d * op.nn, op.nv
+        self._nf = op.d - 1                       # friction components per dof (3-D: T1, T2)
         self.slot = self.rep_index >= 0                                  # (k, m) live slots
+        self.fslot = self._tile(self.slot)                               # (k, nf m) friction slots
         self._y = setup.layout.create_global_vec()
         self._kinematics(mesh.element, setup.points)
         self._dependent_vertices()
@@ -137,7 +148,8 @@ class NodalContactProblem(InterfaceProblem):
         shape = self.rep_index.shape
         start = 1 if c.contact_init is not False else 0
         self.chi = np.where(self.slot, start, 0)                          # dof contact statuses
-        self.slip = np.zeros(shape)                                       # dof friction statuses
+        fshape = (shape[0], self._nf * shape[1])
+        self.slip = np.zeros(fshape)           # dof friction statuses (3-D: slip direction p1, p2)
         self.extrapolated = np.ones(self.n_dep, bool)                     # dependent vertices' mode
         s0 = -abs(float(c.seuil_init)) if (c.seuil_init is not None and self.friction) else 0.0
         self.unbounded = self.friction and s0 == 0.0         # first thresholds from a sticking solve
@@ -156,7 +168,7 @@ class NodalContactProblem(InterfaceProblem):
         self._dof_id = ids                       # input id of each slot's dof (partition-free order)
         self._mark = ((ids * 2654435761) % 4294967296) / 4294967296.0 + 0.5
         self._seen_contact, self._seen_slip = set(), set()
-        self._flips = np.zeros(shape, np.int64)   # friction status changes of each slot in this threshold iteration
+        self._flips = np.zeros(fshape, np.int64)   # friction status changes of each slot in this threshold iteration
         self._accelerated = self._threshold_update()
         self._h0 = None                          # jump dofs at the start of the step (None: 0)
         self._floor_lam = self._floor_gap = 0.0  # round-off scales of the previous steps
@@ -173,9 +185,9 @@ class NodalContactProblem(InterfaceProblem):
         op = self._op
         w = pts.w
         self._lin = el.shape_linear(pts.xi)                                     # (k, q, nv)
-        a_n, a_t = op._operators()                                              # (k, q, 2nn)
-        self._An = np.einsum("kq,kqv,kqd->kvd", w, self._lin, a_n)              # (k, nv, 2nn), m
-        self._At = np.einsum("kq,kqv,kqd->kvd", w, self._lin, a_t)
+        a_n = op.normal_operator()                                              # (k, q, d nn)
+        self._An = np.einsum("kq,kqv,kqd->kvd", w, self._lin, a_n)              # (k, nv, d nn), m
+        self._At = [np.einsum("kq,kqv,kqd->kvd", w, self._lin, a_t) for a_t in op.tangential_operators()]
         self._Wv = np.einsum("kq,kqv->kv", w, self._lin)                        # (k, nv), m
 
     def _dependent_vertices(self):
@@ -195,21 +207,43 @@ class NodalContactProblem(InterfaceProblem):
         convex = self._dep & ~(self.extrapolated[np.maximum(self._dep_index, 0)] if self.n_dep else True)
         self._Tv = np.where(convex[:, :, None], self.space.T_convex, self.space.T)
         self._Bn = np.einsum("kvm,kvd->kmd", self._Tv, self._An)
-        self._Bt = np.einsum("kvm,kvd->kmd", self._Tv, self._At)
+        self._Bt = np.concatenate([np.einsum("kvm,kvd->kmd", self._Tv, At) for At in self._At], axis=1)
         self._Dk = np.einsum("kvm,kv->km", self._Tv, self._Wv)
-        self._D = self._assembled(self._Dk, self._Dk)[0]
+        self._DkT = self._tile(self._Dk)
+        self._D = self._assembled(self._Dk, self._DkT)[0]
+
+    # -- friction components ----------------------------------------------------------
+    def _tile(self, a):
+        """A per-dof array ``(k, m)`` repeated for every friction component ``(k, nf m)``
+        (the friction slots: component c of slot j at column c m + j)."""
+        return np.tile(a, (1, self._nf))
+
+    def _sliding(self, slip):
+        """Friction slots ``(k, nf m)`` of the dofs that slip (2-D: p = +-1; 3-D: a
+        non-zero direction, every component of the dof)."""
+        if self._nf == 1:
+            return slip != 0
+        return self._tile(self._fold(slip != 0))
+
+    def _fold(self, a):
+        """A boolean per-friction-slot array ``(k, nf m)`` reduced to the dofs ``(k, m)``
+        (any component)."""
+        if self._nf == 1:
+            return a
+        return a.reshape(a.shape[0], self._nf, -1).any(axis=1)
 
     # -- assembly of dof and dependent-vertex sums ----------------------------------
     def _assembled(self, share_c, share_f):
-        """Sum over elements of per-slot shares ``(k, m)`` (LAGS_C and LAGS_F1 slots):
+        """Sum over elements of per-slot shares ``(k, m)`` and ``(k, nf m)`` (LAGS_C and
+        friction slots):
         the dof values, back at every slot."""
         y, g = self._y, self.indices
         nh, m = self._nh, self._m
         y.set(0.0)
-        live = self.slot
-        idx = np.r_[g[:, nh:nh + m][live], g[:, nh + m:][live]].astype(PETSc.IntType)
+        live, live_f = self.slot, self.fslot
+        idx = np.r_[g[:, nh:nh + m][live], g[:, nh + m:][live_f]].astype(PETSc.IntType)
         if len(idx):
-            y.setValues(idx, np.r_[share_c[live], share_f[live]], addv=PETSc.InsertMode.ADD_VALUES)
+            y.setValues(idx, np.r_[share_c[live], share_f[live_f]], addv=PETSc.InsertMode.ADD_VALUES)
         y.assemblyBegin()
         y.assemblyEnd()
         ve = self._op.element_values(y)
@@ -259,11 +293,17 @@ class NodalContactProblem(InterfaceProblem):
 
     # -- cycles ---------------------------------------------------------------------
     def _fingerprint(self, values):
-        """A number that identifies the statuses ``values (k, m)`` of every dof."""
+        """A number that identifies the statuses ``values (k, m)`` (or friction slots
+        ``(k, nf m)``) of every dof."""
+        if values.shape[1] != self._m:
+            values = np.einsum("kmc,c->km", self._split(values), 1.0 + np.arange(self._nf))
         return round(self._mpi.allreduce(float(((values + 2.0) * self._mark)[self._once].sum())), 9)
 
     def _first_change(self, changed):
-        """``changed (k, m)`` reduced to the dof of least input id (all processes)."""
+        """``changed (k, m)`` reduced to the dof of least input id (all processes);
+        friction slots ``(k, nf m)``: every component of that dof."""
+        if changed.shape[1] != self._m:
+            return self._tile(self._first_change(self._fold(changed)))
         ids = np.where(changed & self.slot, self._dof_id, np.iinfo(np.int64).max)
         least = self._mpi.allreduce(int(ids.min(initial=np.iinfo(np.int64).max)), op=MPI.MIN)
         return changed & (self._dof_id == least)
@@ -279,9 +319,17 @@ class NodalContactProblem(InterfaceProblem):
         if self._fingerprint(new) in seen:
             if degenerate is not None:
                 new = np.where(degenerate, old, new)
-            one = self._first_change(new != old)
+            one = self._first_change(self._changed(new, old))
             new = np.where(one, new, old)
         return new
+
+    def _changed(self, new, old, tol=DIRECTION_CHANGE):
+        """Where statuses differ: contact and 2-D friction statuses exactly; 3-D slip
+        directions (friction slots) by more than ``tol`` in a component (every component
+        of such a dof)."""
+        if new.shape[1] == self._m or self._nf == 1:
+            return new != old
+        return self._tile(self._fold(np.abs(new - old) > tol))
 
     # -- state at x -----------------------------------------------------------------
     def _values(self, x):
@@ -290,6 +338,11 @@ class NodalContactProblem(InterfaceProblem):
         nh, m = self._nh, self._m
         h, lam, T = ve[:, :nh], ve[:, nh:nh + m], ve[:, nh + m:]
         return ve, h, lam, T
+
+    def _fbounds(self):
+        """:meth:`_bounds` at the friction slots ``(k, nf m)``."""
+        on, bound = self._bounds()
+        return self._tile(on), self._tile(bound)
 
     def _bounds(self):
         """Friction active at the dofs ``(k, m)`` and their bound mu |s| (Pa; inf unbounded)."""
@@ -303,7 +356,7 @@ class NodalContactProblem(InterfaceProblem):
         """The friction statuses the rules give at ``x`` from the committed ones, and
         the values they come from: ``(slip, h, lam, T, active, bound)``."""
         ve, h, lam, T = self._values(x)
-        active, bound = self._bounds()
+        active, bound = self._fbounds()
         gt = self._mean_slip(h if self._h0 is None else h - self._h0, lam.shape)
         # the round-off of the slips: on the scale of the slip (of the step, and after
         # the first step of the whole slip as well), and at least on that of the elastic
@@ -313,14 +366,30 @@ class NodalContactProblem(InterfaceProblem):
                     self._max(np.where(active & np.isfinite(bound), bound, 0.0)) / self._kappa)
         if self._h0 is not None:
             scale = max(scale, self._max(np.where(active, self._mean_slip(h, lam.shape), 0.0)))
-        status = nodal.friction_status(self.slip, active, T, gt, bound, STATUS_SCALE * self._kappa,
-                                       nodal.ROUNDOFF * scale)
+        if self._nf == 1:
+            status = nodal.friction_status(self.slip, active, T, gt, bound, STATUS_SCALE * self._kappa,
+                                           nodal.ROUNDOFF * scale)
+        else:
+            status = self._components(nodal.friction_direction(
+                self._split(self.slip), active[:, :self._m], self._split(T), self._split(gt),
+                bound[:, :self._m], STATUS_SCALE * self._kappa, nodal.ROUNDOFF * scale))
         status = np.where(self._flips >= MAX_FLIPS, self.slip, status)
+        if self._nf > 1:          # a direction that moved by round-off only is the same status
+            status = np.where(self._changed(status, self.slip), status, self.slip)
         return self._no_cycle(self.slip, status, self._seen_slip), h, lam, T, active, bound
 
     def _mean_slip(self, h, shape):
         """Mean slips ``gt (k, m)`` (m) at the dofs of the jump dofs ``h``."""
-        return self._assembled(np.zeros(shape), np.einsum("kmd,kd->km", self._Bt, h))[1] / self._mean_divisor()
+        return (self._assembled(np.zeros(shape), np.einsum("kmd,kd->km", self._Bt, h))[1]
+                / self._tile(self._mean_divisor()))
+
+    def _split(self, a):
+        """``(k, nf m)`` friction-slot values as vectors ``(k, m, nf)`` in the tangent basis."""
+        return a.reshape(a.shape[0], self._nf, -1).transpose(0, 2, 1)
+
+    def _components(self, v):
+        """Vectors ``(k, m, nf)`` back to friction slots ``(k, nf m)``."""
+        return v.transpose(0, 2, 1).reshape(v.shape[0], -1)
 
     def _terms(self, x, commit=False):
         """Everything the residual and the tangent need at ``x``; with ``commit`` the
@@ -328,10 +397,11 @@ class NodalContactProblem(InterfaceProblem):
         slip, h, lam, T, active, bound = self._friction_statuses(x)
         if commit:
             self._seen_slip.add(self._fingerprint(self.slip))
-            self._flips += slip != self.slip
+            self._flips += self._changed(slip, self.slip)
             self.slip = slip
         rho_T = self.rho_T if self.rho_T is not None else self.rho_n
-        return h, nodal.terms(self.chi, slip, active, lam, T, bound, self._Dk, self.rho_n, rho_T)
+        return h, nodal.terms(self.chi, slip, active, lam, T, bound, self._Dk, self.rho_n, rho_T, self._DkT,
+                              None if self._nf == 1 else self._sliding(slip))
 
     # -- Newton ---------------------------------------------------------------------
     def add_residual(self, x: PETSc.Vec, f: PETSc.Vec) -> None:
@@ -362,7 +432,8 @@ class NodalContactProblem(InterfaceProblem):
         K[:, :nh, nh + m:] = Kt.transpose(0, 2, 1)
         i = np.arange(m)
         K[:, nh + i, nh + i] = t["kl"]
-        K[:, nh + m + i, nh + m + i] = t["kT"]
+        j = np.arange(self._nf * m)
+        K[:, nh + m + j, nh + m + j] = t["kT"]
         return K
 
     def residual_norm(self, F: PETSc.Vec) -> float:
@@ -376,7 +447,7 @@ class NodalContactProblem(InterfaceProblem):
         lo, hi = F.getOwnershipRange()
         if self._kappa_rows is None:
             g = self.indices[:, self._nh:]
-            own = self.slot[:, np.r_[:self._m, :self._m]] & (g >= lo) & (g < hi)
+            own = np.concatenate([self.slot, self.fslot], axis=1) & (g >= lo) & (g < hi)
             self._kappa_rows = np.flatnonzero(own)          # owned multiplier slots, flat (k, 2m)
         a = F.getArray(readonly=True)
         total = float(np.dot(a, a))
@@ -392,9 +463,9 @@ class NodalContactProblem(InterfaceProblem):
         """``(k, 2m)``: the force scale (Pa/m) of the rows of the LAGS_C and LAGS_F1 slots
         (see :meth:`residual_norm`), from the committed statuses."""
         rho_T = self.rho_T if self.rho_T is not None else self.rho_n
-        active, _ = self._bounds()
+        active, _ = self._fbounds()
         wc = np.where(self.chi == 1, self._kappa, self.rho_n)
-        wf = np.where(active & (self.slip == 0), self._kappa, rho_T)
+        wf = np.where(active & ~self._sliding(self.slip), self._kappa, rho_T)
         return np.concatenate([wc, wf], axis=1)
 
     def friction_settled(self, x: PETSc.Vec) -> bool:
@@ -407,7 +478,8 @@ class NodalContactProblem(InterfaceProblem):
         if not self.friction:
             return True
         slip = self._friction_statuses(x)[0]
-        return not self._mpi.allreduce(bool(np.any((slip != self.slip) & self.slot)), op=MPI.LOR)
+        changed = self._changed(slip, self.slip, DIRECTION_SETTLED)
+        return not self._mpi.allreduce(bool(np.any(changed & self.fslot)), op=MPI.LOR)
 
     def add_matrices(self, J: PETSc.Mat, K: FloatArray) -> None:
         self._op.add_matrices(J, K)
@@ -433,7 +505,7 @@ class NodalContactProblem(InterfaceProblem):
             return 0
         ve, h, lam, T = self._values(x)
         D = self._mean_divisor()
-        gn = self._assembled(np.einsum("kmd,kd->km", self._Bn, h), np.zeros(lam.shape))[0] / D
+        gn = self._assembled(np.einsum("kmd,kd->km", self._Bn, h), np.zeros(self.fslot.shape))[0] / D
         tol_lam = self._lam_zero(lam)
         tol_gap = nodal.ROUNDOFF * max(self._gap_scale(h), self._floor_gap)
         new = np.where(self.slot, nodal.contact_status(self.chi, lam, gn, tol_lam, tol_gap), 0)
@@ -446,9 +518,9 @@ class NodalContactProblem(InterfaceProblem):
         # friction statuses that x contradicts (a Newton solve that started converged,
         # after a threshold update, evaluated no tangent): they count as changes too
         slip = self._friction_statuses(x)[0] if self.friction else self.slip
-        held = slip != self.slip
+        held = self._fold(self._changed(slip, self.slip))
         lam_eq, T_eq = self._equilibrium_tractions(lam, T)      # those x was solved with
-        self.slip = np.where(changed, 0.0, slip)       # a dof entering contact starts sticking
+        self.slip = np.where(self._tile(changed), 0.0, slip)       # a dof entering contact starts sticking
         self.chi = new
         count = self._count(changed | held)
         switched = self._admissible_vertices(lam_eq, T_eq, tol_lam)
@@ -463,8 +535,8 @@ class NodalContactProblem(InterfaceProblem):
         rho_T scale: far more than round-off when rho_T / D_a is large.)"""
         lam = np.where(self.chi == 1, lam, 0.0)
         if self.friction and not self.unbounded:
-            active, bound = self._bounds()
-            T = np.where(active & (self.slip != 0), bound * self.slip, T)
+            active, bound = self._fbounds()
+            T = np.where(active & self._sliding(self.slip), bound * self.slip, T)
         return lam, T
 
     def _inadmissible(self, lam: FloatArray, T: FloatArray, tol_lam: float) -> BoolArray:
@@ -477,7 +549,10 @@ class NodalContactProblem(InterfaceProblem):
         if self.friction and not self.unbounded:
             active, bound = self._bounds()
             sw = self._dep_value(np.einsum("kvm,km->kv", T_ext, np.where(active, self.s, 0.0)))
-            Tw = np.abs(self._dep_value(np.einsum("kvm,km->kv", T_ext, np.where(active, T, 0.0))))
+            Tc = self._split(T)
+            Tw = np.sqrt(sum(self._dep_value(np.einsum("kvm,km->kv", T_ext, np.where(active, Tc[..., c], 0.0))) ** 2
+                             for c in range(self._nf))) if self._nf > 1 else \
+                np.abs(self._dep_value(np.einsum("kvm,km->kv", T_ext, np.where(active, T, 0.0))))
             bad |= (sw > tol_lam) | (Tw > self.mu * np.abs(sw) * (1.0 + nodal.ROUNDOFF) + tol_lam * self.mu)
         return bad
 
@@ -511,7 +586,10 @@ class NodalContactProblem(InterfaceProblem):
         if self.unbounded or not np.any(self._mpi.allgather(bool(np.count_nonzero(self.s)))):
             self.s = target                            # the first thresholds
         else:
-            key = (self._fingerprint(self.chi), self._fingerprint(self.slip), self.extrapolated.tobytes())
+            # the statuses the acceleration's history is valid for (3-D: which dofs slip,
+            # not their directions, which move by round-off from one solve to the next)
+            slip = self.slip if self._nf == 1 else np.where(self._fold(self.slip != 0), 1.0, 0.0)
+            key = (self._fingerprint(self.chi), self._fingerprint(slip), self.extrapolated.tobytes())
             self.s = self._accelerated(self.s, target, key)
         self.unbounded = self.free_start = False
         self._set_rho_T(self._max(self.s))
@@ -626,7 +704,7 @@ class NodalContactProblem(InterfaceProblem):
 
     def status_changes(self, st: dict[str, Any]) -> int:
         """Dofs (all processes) whose contact or friction status differs from ``st``."""
-        return self._count((self.chi != st["chi"]) | (self.slip != st["slip"]))
+        return self._count((self.chi != st["chi"]) | self._fold(self.slip != st["slip"]))
 
     # -- results --------------------------------------------------------------------
     def vertex_values(self, x: PETSc.Vec, thresholds_from_x: bool = False) -> VertexValues:
@@ -640,20 +718,67 @@ class NodalContactProblem(InterfaceProblem):
         bounded = active & np.isfinite(bound)
         s = self.s
         # the traction the equilibrium holds: the dof in stick, mu |s| p in slip
-        T = np.where(active & (self.slip != 0), np.where(bounded, bound, 0.0) * self.slip, T)
+        fa, fb = self._fbounds()
+        T = np.where(fa & self._sliding(self.slip), np.where(fa & np.isfinite(fb), fb, 0.0) * self.slip, T)
         if thresholds_from_x:
             s = np.where(self.slot, self._threshold(lam), 0.0)
             bounded = self.slot & (s != 0) & self.friction
         Tv = self._Tv
         uses = np.abs(Tv) > 0
-        return (np.einsum("kvm,km->kv", Tv, lam), np.einsum("kvm,km->kv", Tv, np.where(bounded, T, 0.0)),
+        Tb = np.where(self._tile(bounded), T, 0.0)
+        if self._nf == 1:
+            Tvert = np.einsum("kvm,km->kv", Tv, Tb)
+        else:                                       # (k, nv, nf): the components
+            Tvert = np.einsum("kvm,kmc->kvc", Tv, self._split(Tb))
+        return (np.einsum("kvm,km->kv", Tv, lam), Tvert,
                 np.einsum("kvm,km->kv", Tv, np.where(bounded, s, 0.0)),
                 np.any(uses & (self.chi == 1)[:, None, :], axis=2).astype(float),
-                np.any(uses & (active & (self.slip != 0))[:, None, :], axis=2).astype(float))
+                np.any(uses & (active & self._fold(self.slip != 0))[:, None, :], axis=2).astype(float))
+
+    def point_values(self, x: PETSc.Vec, thresholds_from_x: bool = False) -> dict[str, NDArray[Any]]:
+        """Values at the interface points (2-D: the segment ends, see
+        :meth:`InterfaceProblem.point_values`; 3-D: :meth:`facet_values`)."""
+        if self._nf == 1:
+            return super().point_values(x, thresholds_from_x)
+        return self.facet_values(x, thresholds_from_x)
+
+    def facet_values(self, x: PETSc.Vec, thresholds_from_x: bool = False) -> dict[str, NDArray[Any]]:
+        """3-D: values at the Gauss points of the interface facets (one entry per point of
+        non-zero weight), flat arrays: x, y, z (m), w (area weight, m^2), LAGS_C (Pa),
+        LAGS_F1, LAGS_F2 (-: the tangential traction's components in the tangent basis
+        (t1, t2) of :func:`~xfemcontact.xfem.integration3d.tangent_basis` over mu s,
+        code_aster's semi-multipliers), T (Pa, the magnitude of the tangential traction,
+        basis-free), gap (m, [u].n), slip1, slip2 (m, [u].t1, [u].t2), slip (m, the
+        magnitude of the tangential jump), contact, sliding (1/0), cell (input cell
+        index), end (the point's index in its element)."""
+        op, pts = self._op, self.points
+        ve = op.element_values(x)
+        h = ve[:, :self._nh]
+        gap = np.einsum("kqd,kd->kq", op.normal_operator(), h)
+        s1, s2 = (np.einsum("kqd,kd->kq", a, h) for a in op.tangential_operators())
+        lam, T, s, chi, sliding = self.vertex_values(x, thresholds_from_x)
+        lin = self._lin
+        Tq = np.einsum("kqv,kvc->kqc", lin, T)
+        sq = np.einsum("kqv,kv->kq", lin, s)
+        on = lin > 1e-14
+        live = pts.w != 0
+        k, q = pts.w.shape
+        out = {"x": pts.x[..., 0], "y": pts.x[..., 1], "z": pts.x[..., 2], "w": pts.w,
+               "LAGS_C": np.einsum("kqv,kv->kq", lin, lam),
+               "LAGS_F1": nodal.semi_multiplier(Tq[..., 0], sq, self.mu),
+               "LAGS_F2": nodal.semi_multiplier(Tq[..., 1], sq, self.mu),
+               "T": np.linalg.norm(Tq, axis=-1), "gap": gap, "slip1": s1, "slip2": s2,
+               "slip": np.hypot(s1, s2),
+               "contact": np.max(np.where(on, chi[:, None, :], 0.0), axis=-1, initial=0.0),
+               "sliding": np.max(np.where(on, sliding[:, None, :], 0.0), axis=-1, initial=0.0),
+               "cell": np.repeat(self._op.mesh.cell_ids[pts.cells][:, None], q, axis=1),
+               "end": np.broadcast_to(np.arange(q), (k, q))}
+        return {key: np.asarray(v)[live] for key, v in out.items()}
 
     def _end_values(self, x: PETSc.Vec, thresholds_from_x: bool = False) -> EndValues:
         vals = self.vertex_values(x, thresholds_from_x)
         el = self._op.mesh.element
+        assert self.segments is not None          # 2-D (3-D: facet_values)
         nodes = self.segments.nodes
 
         def values(ve: FloatArray, phi: FloatArray, end: int) -> dict[str, FloatArray]:

@@ -23,7 +23,7 @@ import numpy as np
 
 from xfemcontact._petsc import PETSc
 from xfemcontact.contact import gauss_point as claw
-from xfemcontact.xfem import integration
+from xfemcontact.xfem import integration, integration3d
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
@@ -34,6 +34,7 @@ if TYPE_CHECKING:
     from xfemcontact.mesh.plex import LocalMesh
     from xfemcontact.xfem.geometry import Geometry
     from xfemcontact.xfem.integration import SegmentPoints
+    from xfemcontact.xfem.integration3d import FacetPoints
 
     FloatArray = NDArray[np.float64]
     IntArray = NDArray[np.int64]
@@ -68,25 +69,33 @@ class InterfaceOperator:
     documentation)."""
 
     def __init__(self, mesh: LocalMesh, geo: Geometry, layout: DofLayout, space: MultiplierSpace,
-                 rep_index: IntArray, law: PointLaw | None, pts: SegmentPoints) -> None:
-        """``pts``: :class:`integration.SegmentPoints` of ``geo.segments()``; ``rep_index``
+                 rep_index: IntArray, law: PointLaw | None, pts: SegmentPoints | FacetPoints) -> None:
+        """``pts``: :class:`integration.SegmentPoints` of ``geo.segments()`` (3-D: the
+        facets' :class:`integration3d.FacetPoints`); ``rep_index``
         ``(k, m)``: global LAGS_C index of the carriers of each segment cell (-1 pad);
         ``law``: the :class:`~xfemcontact.contact.gauss_point.PointLaw` (None when the
         conditions are written at the dofs: no point terms)."""
         self.mesh, self.layout, self.law = mesh, layout, law
         el = mesh.element
-        segs = geo.segments()
-        self.segments = segs
+        self.d = d = mesh.dim
+        self.segments = geo.segments() if d == 2 else None
         self.pts = pts
-        nodes = mesh.cell_nodes[segs.cells]
+        nodes = mesh.cell_nodes[pts.cells]
         self.N = el.shape(self.pts.xi)                                        # (k, ng, nn)
         self.phi = space.functions(el.shape_linear(self.pts.xi))              # (k, ng, m)
         self.enr = geo.enriched[nodes]                                         # (k, nn)
         self.space = space
+        #: (k, ng, d, d - 1) unit tangents (2-D: code_aster's tau; 3-D: t1, t2 of
+        #: :func:`~xfemcontact.xfem.integration3d.tangent_basis`)
+        if isinstance(pts, integration.SegmentPoints):            # 2-D
+            self.tangents = pts.tangent[..., None]
+        else:
+            axis = integration3d.interface_axis(pts.normal, pts.w, mesh.comm.tompi4py())
+            self.tangents = integration3d.tangent_basis(pts.normal, axis)
         lam_idx = rep_index                                                    # (k, m) global LAGS_C
-        hg = np.where(self.enr[:, None, :], layout.h_global[nodes].transpose(0, 2, 1), -1)  # (k, 2, nn)
-        self.gidx = np.concatenate([hg.reshape(len(nodes), 2 * el.nn), lam_idx,
-                                    np.where(lam_idx >= 0, lam_idx + 1, -1)], axis=1)
+        hg = np.where(self.enr[:, None, :], layout.h_global[nodes].transpose(0, 2, 1), -1)  # (k, d, nn)
+        self.gidx = np.concatenate([hg.reshape(len(nodes), d * el.nn), lam_idx]
+                                   + [np.where(lam_idx >= 0, lam_idx + c, -1) for c in range(1, d)], axis=1)
         self.nn, self.nv = el.nn, lam_idx.shape[1]
         self._scatter_setup()
 
@@ -116,17 +125,31 @@ class InterfaceOperator:
         lam_v, Lam_v = ve[:, 2 * nn:2 * nn + nv], ve[:, 2 * nn + nv:]
         jx = 2.0 * np.einsum("kqa,ka->kq", self.N, hx)
         jy = 2.0 * np.einsum("kqa,ka->kq", self.N, hy)
-        n, t = self.pts.normal, self.pts.tangent
+        n, t = self.pts.normal, self.tangents[..., 0]
         g = jx * n[..., 0] + jy * n[..., 1]
         ut = jx * t[..., 0] + jy * t[..., 1]
         lam = np.einsum("kqa,ka->kq", self.phi, lam_v)
         Lam = np.einsum("kqa,ka->kq", self.phi, Lam_v)
         return g, ut, lam, Lam
 
+    def normal_operator(self) -> FloatArray:
+        """``a_n (k, ng, d nn)``: d g / d h, the gap ``g = [u].n`` (m) at the Gauss points
+        as a function of the Heaviside dofs (ordered H1X of the nodes, H1Y, [H1Z])."""
+        return self._project(self.pts.normal)
+
+    def tangential_operators(self) -> list[FloatArray]:
+        """``[a_t (k, ng, d nn)]``, one per tangent (2-D: tau; 3-D: t1, t2): d ([u].t) / d h."""
+        return [self._project(self.tangents[..., c]) for c in range(self.d - 1)]
+
+    def _project(self, v: FloatArray) -> FloatArray:
+        """d ([u].v) / d h for unit vectors ``v (k, ng, d)``: [u] = 2 sum N_j h_j."""
+        N2 = 2.0 * self.N * self.enr[:, None, :]
+        return np.concatenate([N2 * v[..., i:i + 1] for i in range(self.d)], axis=2)
+
     def _operators(self) -> tuple[FloatArray, FloatArray]:
         """``a_n, a_t (k, ng, 2 nn)``: d g / d h and d ut / d h."""
         N2 = 2.0 * self.N * self.enr[:, None, :]
-        n, t = self.pts.normal, self.pts.tangent
+        n, t = self.pts.normal, self.tangents[..., 0]
         a_n = np.concatenate([N2 * n[..., :1], N2 * n[..., 1:]], axis=2)
         a_t = np.concatenate([N2 * t[..., :1], N2 * t[..., 1:]], axis=2)
         return a_n, a_t
@@ -214,6 +237,7 @@ class InterfaceOperator:
         from xfemcontact.fem.elements import Seg3
 
         mesh, el, segs = self.mesh, self.mesh.element, self.segments
+        assert segs is not None                  # 2-D (3-D: NodalContactProblem.facet_values)
         ve = self.element_values(x)
         nn = self.nn
         xc = mesh.x[mesh.cell_nodes[segs.cells]]

@@ -82,6 +82,7 @@ if TYPE_CHECKING:
     from xfemcontact.xfem.cut import Segments
     from xfemcontact.xfem.geometry import Geometry
     from xfemcontact.xfem.integration import SegmentPoints
+    from xfemcontact.xfem.integration3d import FacetPoints
 
     FloatArray = NDArray[np.float64]
     IntArray = NDArray[np.int64]
@@ -97,14 +98,16 @@ class InterfaceSetup:
     ``mesh`` (:class:`~xfemcontact.mesh.plex.Mesh`), ``geo`` (cut geometry,
     :mod:`xfemcontact.xfem.geometry`), ``layout``
     (:class:`~xfemcontact.dofs.layout.DofLayout`), ``points``
-    (:class:`~xfemcontact.xfem.integration.SegmentPoints` of ``geo.segments()``),
+    (:class:`~xfemcontact.xfem.integration.SegmentPoints` of ``geo.segments()``; 3-D:
+    :class:`~xfemcontact.xfem.integration3d.FacetPoints` of the facets, cut cells then
+    cells owning an interface face, from ``geo.interface_points``),
     ``space`` (the multiplier space, None without multipliers) and ``case``.
     """
 
     mesh: LocalMesh
     geo: Geometry
     layout: DofLayout
-    points: SegmentPoints
+    points: SegmentPoints | FacetPoints
     space: Any           # MultiplierSpace, or None without multipliers (the laws that have them give one)
     case: Any            # xfemcontact.case.load.Case (not imported: the case package imports the laws)
 
@@ -117,8 +120,8 @@ class InterfaceProblem:
     """
 
     comm: PETSc.Comm
-    segments: Segments
-    points: SegmentPoints
+    segments: Segments | None                # 2-D; None in 3-D (the interface is made of facets)
+    points: SegmentPoints | FacetPoints      # 3-D: the facets' Gauss points (FacetPoints)
     law: PointLaw | None                     # the Gauss-point law (None: conditions at the dofs)
     warnings: list[str]                      # of the set-up, one line each (results.json)
     loops: tuple[str, ...] = ()

@@ -53,6 +53,25 @@ partition:
 
 Merged vertices share the dof held by the representative (the smallest input
 node index of the class).
+
+In 3-D (:func:`build3d`) the interface elements are the cut cells (their facets)
+and the cells owning an interface lying on a face; the raw space and step 1 are
+the same (P1 / Q1 vertex functions of TETRA10 / HEXA20, weak vertices
+extrapolated from their nearest full cell).  Step 2 is done on the trace Gram
+matrix directly, with merges only: on each set of carriers sharing interface
+elements the eigenvectors of the (scaled) Gram matrix below ``KERNEL_3D`` span
+the kernel; crossed edges (nearest their middle first, then the least ids), then
+any edge of an interface cell, are merged while the merge is not already
+satisfied by every kernel vector, each merge removing one kernel dimension
+(exactly: the kernel of the merged space is the part of the kernel that satisfies
+the merges).  Why: a plane has one kernel per set (the signed distance, P1 and
+Q1 reproduce it), but an axis-aligned plane on hexahedra has a kernel as large as
+half of the vertices (trilinear functions vanishing on a plane z = c), and the
+packets of 2-D (chains of crossed edges) are whole interfaces in 3-D; reading the
+kernel once and updating it merge by merge costs one dense eigenvalue problem per
+set.  Merges keep linear fields exact (the merged values of an edge crossing the
+interface can be met by adding a multiple of the signed distance), except where
+several merges meet in one class.  No gradient ties in 3-D.
 """
 from __future__ import annotations
 
@@ -82,7 +101,12 @@ if TYPE_CHECKING:
 #: least interface weight of a vertex carrying multipliers, by cell type: measured
 #: on sweeps of the SSNV509 arc across the mesh (bilinear traces on QUAD8 keep
 #: useful information down to smaller weights than linear ones on TRIA6)
-WEAK = {"QUAD8": 0.02, "TRIA6": 0.05}
+WEAK = {"QUAD8": 0.02, "TRIA6": 0.05, "HEXA20": 0.05, "TETRA10": 0.1}
+#: (3-D: measured on a sphere in a box under a uniform stress that sticks everywhere,
+#: N = 4 and 8: with 0.02 / 0.05 the dof values of LAGS_C spread from -358 to 0 Pa for
+#: point values of -150 to -100 Pa (weakly controlled dofs: a dof opened, another slid
+#: with mu = 10, and the threshold loop did not converge on HEXA20 N = 4), max error
+#: 13.7 Pa on TETRA10 N = 8; with 0.05 / 0.1 -215 to -48, and 3.1 Pa)
 #: scaled trace eigenvalue below which a packet is tied, by cell type.  On
 #: quadrangles a packet is usually one crossed edge whose "curvature" mode is
 #: nearly invisible where the interface is locally flat (the bottom of an arc):
@@ -91,6 +115,14 @@ WEAK = {"QUAD8": 0.02, "TRIA6": 0.05}
 #: only.  On triangles a packet is a long chain of crossed edges whose smallest
 #: eigenvalue measures the chain as a whole: only true kernels are tied.
 KERNEL = {"QUAD8": 1e-3, "TRIA6": 1e-10}
+#: 3-D (:func:`build3d`): scaled trace eigenvalue below which a mode of a set of
+#: carriers sharing cut cells is removed by merges.  HEXA20: trilinear functions
+#: restricted to a nearly axis-aligned surface have nearly invisible modes (on an
+#: axis-aligned plane half of the vertex values are a kernel), tied like the weak
+#: packets of quadrangles; TETRA10: only true kernels (the signed distance of a plane)
+KERNEL_3D = {"HEXA20": 1e-3, "TETRA10": 1e-10}
+#: 3-D: a vertex function whose largest value on the interface is at most this is zero there
+ZERO_TRACE = 1e-12
 #: below this a packet is singular (straight interface): its ties stay merges
 SINGULAR = 1e-10
 
@@ -99,10 +131,10 @@ SINGULAR = 1e-10
 class SegmentTopology:
     """Where the interface meets the boundary of each owning cell."""
 
-    cut_edges: IntArray        # (k, 2, 2) global ids (a, b) of the edge of P1, P2 (-1 if at a vertex)
-    r: FloatArray              # (k, 2) position of P1, P2 on that edge from a, in (0, 1)
+    cut_edges: IntArray        # (k, e, 2) global ids (a, b) of the crossed edges (2-D: of P1, P2; -1: none)
+    r: FloatArray              # (k, e) position of the crossing on that edge from a, in (0, 1)
     verts: IntArray            # (k, nv) global ids of the cell's vertices
-    xv: FloatArray             # (k, nv, 2) vertex coordinates, m
+    xv: FloatArray             # (k, nv, d) vertex coordinates, m
 
 
 def topology(mesh: LocalMesh, segments: Segments) -> SegmentTopology:
@@ -185,26 +217,8 @@ def build(mesh: LocalMesh, segments: Segments, algo: str = "AUTO",
     topo = topology(mesh, segments)
     ends = el.shape_linear(segments.nodes[:, :2])                              # (k, 2, nv)
     local_w = np.max(np.concatenate([ends, lin_at_points], axis=1), axis=1)     # (k, nv)
-    mpi = mesh.comm.tompi4py()
-    parts = mpi.allgather((topo.cut_edges.reshape(-1, 2), topo.r.reshape(-1), topo.verts,
-                           topo.xv, local_w))
-    edges = np.concatenate([p[0] for p in parts])
-    r = np.concatenate([p[1] for p in parts])
-    cverts = np.concatenate([p[2] for p in parts])          # (K, nv) every cut cell
-    cx = np.concatenate([p[3] for p in parts])              # (K, nv, 2)
-    cw = np.concatenate([p[4] for p in parts])
-    ids, first = np.unique(cverts.ravel(), return_index=True)
-    xv = cx.reshape(-1, 2)[first]
-    weight = np.zeros(len(ids))
-    np.maximum.at(weight, np.searchsorted(ids, cverts.ravel()), cw.ravel())
-    strong = weight >= WEAK[el.name] if algo != "NON" else np.ones(len(ids), bool)
-    carriers = ids[strong]
-    ext = _aggregation(el, ids, xv, strong, cverts, cx)          # weak id -> (root ids, weights)
-    carriers_of, T = _cell_maps(topo, nv, strong, ids, ext)
-    T_convex = _cell_maps(topo, nv, strong, ids, convex_aggregation(ext, xv, ids))[1]
-    space = MultiplierSpace(carriers, carriers.copy(), topo, carriers_of, T, T_convex, algo=algo,
-                            n_weak=int((~strong).sum()))
-    if algo != "NON" and len(carriers):
+    space, (edges, r, ids, xv, strong, ext, cverts) = _raw_space(mesh, topo, local_w, algo)
+    if algo != "NON" and len(space.ids):
         assert lin_at_points is not None and weights is not None      # needed by the ties
         _tie_kernels(space, mesh, edges, r, lin_at_points, weights)
         merged: set[tuple[int, int]] = set()
@@ -219,17 +233,54 @@ def build(mesh: LocalMesh, segments: Segments, algo: str = "AUTO",
     return space
 
 
+def _raw_space(mesh: LocalMesh, topo: SegmentTopology, local_w: FloatArray,
+               algo: str) -> tuple[MultiplierSpace, tuple[Any, ...]]:
+    """The space of every strong vertex of every process's cut cells, weak vertices
+    aggregated (step 1 of the module documentation), both dimensions.  ``local_w (k,
+    nv)``: the largest value of each vertex's linear function on this process's
+    interface points.  Returns the space and the gathered data the ties need:
+    ``(edges (E, 2), r (E,), ids, xv, strong, ext, cverts)``."""
+    el = mesh.element
+    mpi = mesh.comm.tompi4py()
+    parts = mpi.allgather((topo.cut_edges.reshape(-1, 2), topo.r.reshape(-1), topo.verts,
+                           topo.xv, local_w))
+    edges = np.concatenate([p[0] for p in parts])
+    r = np.concatenate([p[1] for p in parts])
+    cverts = np.concatenate([p[2] for p in parts])          # (K, nv) every cut cell
+    cx = np.concatenate([p[3] for p in parts])              # (K, nv, d)
+    cw = np.concatenate([p[4] for p in parts])
+    ids, first = np.unique(cverts.ravel(), return_index=True)
+    xv = cx.reshape(-1, cx.shape[-1])[first]
+    weight = np.zeros(len(ids))
+    np.maximum.at(weight, np.searchsorted(ids, cverts.ravel()), cw.ravel())
+    strong = weight >= WEAK[el.name] if algo != "NON" else np.ones(len(ids), bool)
+    ext = _aggregation(el, ids, xv, strong, cverts, cx)          # weak id -> (root ids, weights)
+    if mesh.dim == 3 and not ext and not strong.all():
+        # no interface cell has all its vertices strong (a plane through vertices of a
+        # few cells): the weak vertices whose functions are not zero on the interface
+        # stay carriers, and the merges of the kernel step remove their weak modes
+        # (dropped, they left constants out of the space); those whose functions are
+        # zero there (the far vertices of a cell owning an interface face) carry nothing
+        strong = weight > ZERO_TRACE
+    carriers = ids[strong]
+    carriers_of, T = _cell_maps(topo, el.nv, strong, ids, ext)
+    T_convex = _cell_maps(topo, el.nv, strong, ids, convex_aggregation(ext, xv, ids))[1]
+    space = MultiplierSpace(carriers, carriers.copy(), topo, carriers_of, T, T_convex, algo=algo,
+                            n_weak=int((~strong).sum()))
+    return space, (edges, r, ids, xv, strong, ext, cverts)
+
+
 def convex_weights(points: FloatArray, target: FloatArray) -> FloatArray:
     """Non-negative weights ``w (r,)`` summing to 1 with ``w @ points`` closest to
-    ``target (2,)``: the barycentric coordinates of ``target`` when it lies in the
-    convex hull of ``points (r, 2)`` (then linear fields are reproduced exactly),
+    ``target (d,)``: the barycentric coordinates of ``target`` when it lies in the
+    convex hull of ``points (r, d)`` (then linear fields are reproduced exactly),
     else those of the hull's point nearest to it.  One small NNLS problem."""
     from scipy.optimize import nnls
 
     scale = max(float(np.ptp(points, axis=0).max(initial=0.0)), 1e-300)
     big = 1e3
     A = np.vstack([(points - target).T / scale, big * np.ones(len(points))])
-    b = np.r_[0.0, 0.0, big]
+    b = np.r_[np.zeros(points.shape[1]), big]
     w, _ = nnls(A, b)
     return w / w.sum()
 
@@ -586,3 +637,111 @@ def _merged_eigenvalue(Gm: Sparse, members: IntArray, root: IntArray) -> float:
     P = sp.csr_matrix((np.ones(len(members)), (np.arange(len(members)), cls)),
                       shape=(len(members), cls.max() + 1))
     return _smallest_scaled_eigenvalue((P.T @ Gm @ P).tocsr())
+
+
+def topology3d(mesh: LocalMesh, cells: IntArray, phi: FloatArray) -> SegmentTopology:
+    """:class:`SegmentTopology` of the interface cells ``cells (k,)`` (local) with LN
+    ``phi`` at the local nodes: every edge whose vertices have strict opposite signs
+    is crossed, at the zero of LN's linear interpolation (``r``; the ties use it for
+    their order only)."""
+    el = mesh.element
+    vnodes = mesh.cell_nodes[cells, : el.nv]
+    verts = mesh.node_ids[vnodes]
+    a, b = el.edges[:, 0], el.edges[:, 1]
+    pa, pb = phi[vnodes[:, a]], phi[vnodes[:, b]]                          # (k, ne)
+    crossed = pa * pb < 0
+    cut_edges = np.where(crossed[..., None], np.stack([verts[:, a], verts[:, b]], axis=-1), -1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = np.where(crossed, pa / np.where(crossed, pa - pb, 1.0), np.nan)
+    return SegmentTopology(cut_edges, r, verts, mesh.x[vnodes])
+
+
+def build3d(mesh: LocalMesh, cells: IntArray, phi: FloatArray, lin_at_points: FloatArray,
+            weights: FloatArray, algo: str = "AUTO") -> MultiplierSpace:
+    """The 3-D multiplier space (see the module documentation) of the interface
+    elements ``cells (k,)`` (local cells, one row per element), LN ``phi`` at the
+    local nodes; ``lin_at_points (k, q, nv)`` the vertex functions at the elements'
+    Gauss points, ``weights (k, q)`` their weights (m^2, 0 on padding)."""
+    topo = topology3d(mesh, cells, phi)
+    live = (weights != 0)[..., None]
+    local_w = np.max(np.where(live, lin_at_points, 0.0), axis=1, initial=0.0)      # (k, nv)
+    space, (edges, r, ids, xv, strong, ext, cverts) = _raw_space(mesh, topo, local_w, algo)
+    if algo != "NON" and len(space.ids):
+        _merge_kernels(space, mesh, edges, r, cverts, lin_at_points, weights)
+    return space
+
+
+def _merge_kernels(space: MultiplierSpace, mesh: LocalMesh, edges: IntArray, r: FloatArray,
+                   cverts: IntArray, lin_at_points: FloatArray, weights: FloatArray) -> None:
+    """3-D step 2 (module documentation): merges until no set of carriers sharing
+    interface cells has a mode below ``KERNEL_3D``; sets ``rep``, ``n_ties``,
+    ``tie_edges``, ``smallest``.  Decided on gathered data, by input ids."""
+    ids = space.ids
+    n = len(ids)
+    G = _gram(space, mesh, lin_at_points, weights)
+    kernel = KERNEL_3D[mesh.element.name]
+    cand = _merge_candidates(ids, edges, r, cverts)                      # (c, 2) positions in ids
+    root = np.arange(n)
+    ncomp, comp = connected_components(G != 0, directed=False)
+    smallest = np.inf
+    for c in range(ncomp):
+        members = np.nonzero(comp == c)[0]
+        Gm = G[members][:, members].toarray()
+        d = np.diag(Gm)
+        sc = 1.0 / np.sqrt(np.where(d > 0, d, 1.0))
+        lam, V = np.linalg.eigh(Gm * sc[:, None] * sc[None, :])
+        Z = np.linalg.qr(V[:, lam < kernel] * sc[:, None])[0]     # orthonormal, in vertex values
+        local = -np.ones(n, np.int64)
+        local[members] = np.arange(len(members))
+        mine = cand[(local[cand[:, 0]] >= 0) & (local[cand[:, 1]] >= 0)]
+        for ia, ib in mine:
+            if Z.shape[1] == 0:
+                break
+            if root[ia] == root[ib]:
+                continue
+            row = Z[local[ia]] - Z[local[ib]]
+            if np.linalg.norm(row) <= 1e-8:
+                continue                                  # every kernel vector satisfies it already
+            Z = _restrict(Z, row)
+            lo, hi = min(root[ia], root[ib]), max(root[ia], root[ib])
+            root[root == hi] = lo
+            space.n_ties += 1
+            space.tie_edges.append((int(ids[ia]), int(ids[ib]), float(lam[0])))
+        if len(members) > 1:
+            smallest = min(smallest, _merged_eigenvalue(G[members][:, members], members, root))
+    space.n_packets = ncomp
+    space.smallest = smallest
+    space.rep = ids[root]
+
+
+def _merge_candidates(ids: IntArray, edges: IntArray, r: FloatArray, cverts: IntArray) -> IntArray:
+    """Pairs of carriers ``(c, 2)`` (positions in ``ids``) in the order they are tried:
+    the crossed edges, nearest their middle first, then every other pair of vertices
+    of an interface cell; least ids first among equals."""
+    keep = (edges[:, 0] >= 0) & np.isin(edges[:, 0], ids) & np.isin(edges[:, 1], ids)
+    e = np.sort(edges[keep], axis=1)
+    cen = np.abs(r[keep] - 0.5)
+    order = np.lexsort((e[:, 1], e[:, 0], cen))
+    e, cen = e[order], cen[order]
+    _, first = np.unique(e, axis=0, return_index=True)
+    crossed = e[np.sort(first)]
+    nv = cverts.shape[1]
+    i, j = np.triu_indices(nv, k=1)
+    pairs = np.sort(np.stack([cverts[:, i].ravel(), cverts[:, j].ravel()], axis=1), axis=1)
+    pairs = pairs[np.isin(pairs[:, 0], ids) & np.isin(pairs[:, 1], ids)]
+    pairs = np.unique(pairs, axis=0)
+    out = np.concatenate([crossed, pairs]) if len(pairs) else crossed
+    return np.searchsorted(ids, out.reshape(-1, 2))
+
+
+def _restrict(Z: FloatArray, row: FloatArray) -> FloatArray:
+    """An orthonormal basis ``(n, k - 1)`` of the vectors ``Z y`` of the span of the
+    orthonormal ``Z (n, k)`` with ``row . y = 0`` (one Householder reflection)."""
+    v = row / np.linalg.norm(row)
+    u = v.copy()
+    u[0] -= 1.0
+    nu = np.linalg.norm(u)
+    if nu < 1e-14:                           # v = e_0 already
+        return Z[:, 1:]
+    u /= nu
+    return (Z - 2.0 * np.outer(Z @ u, u))[:, 1:]

@@ -8,11 +8,12 @@ field       components           carried by
 0 u         DX, DY (DZ in 3-D)   every node
 1 h         H1X, H1Y (H1Z)       Heaviside-enriched nodes
 2 LAGS_C    contact pressure     representative vertices of the multiplier space
-3 LAGS_F1   friction             the same vertices
+3 LAGS_F1   friction             the same vertices (3-D: LAGS_F1, LAGS_F2, two
+                                 tangential components)
 ==========  ===================  =======================================================
 
 Within a point, dofs are ordered field by field, so node ``i``'s local dofs are
-``off[i] + (DX, DY, [DZ], [H1X, H1Y, [H1Z]], [LAGS_C, LAGS_F1])``; the PetscSection
+``off[i] + (DX, DY, [DZ], [H1X, H1Y, [H1Z]], [LAGS_C, LAGS_F1, [LAGS_F2]])``; the PetscSection
 itself has one field (the kinds are told apart by these index arrays only).  The
 dimension ``d`` (2 or 3) is the mesh's.
 Imposed components (Dirichlet conditions, Heaviside dofs forced to zero) are
@@ -91,7 +92,7 @@ class DofLayout:
     # -- section ------------------------------------------------------------
     def _dofs_per_field(self) -> IntArray:
         n, d = len(self.enriched), self.dim
-        return np.c_[np.full(n, d), d * self.enriched, self.multiplier, self.multiplier].astype(np.int64)
+        return np.c_[np.full(n, d), d * self.enriched, self.multiplier, (d - 1) * self.multiplier].astype(np.int64)
 
     def _build_section(self) -> PETSc.Section:
         """A PetscSection with one field holding every dof of a node (a field per kind
@@ -159,11 +160,11 @@ class DofLayout:
     # -- derived index arrays (recomputed after release_setup if asked for) ----
     @property
     def lag_local(self) -> IntArray:
-        """``(n, 2)`` local LAGS_C, LAGS_F1 dof of every node (-1 where absent)."""
+        """``(n, d)`` local LAGS_C, LAGS_F1, [LAGS_F2] dof of every node (-1 where absent)."""
         if "lag_local" not in self._derived:
             it, d = PETSc.IntType, self.dim
             lag0 = self.u_local[:, 0] + d + d * self.enriched.astype(it)
-            self._derived["lag_local"] = np.where(self.multiplier[:, None], lag0[:, None] + np.arange(2, dtype=it),
+            self._derived["lag_local"] = np.where(self.multiplier[:, None], lag0[:, None] + np.arange(d, dtype=it),
                                                   it(-1))
         return self._derived["lag_local"]
 
@@ -190,7 +191,7 @@ class DofLayout:
 
     @property
     def lag_global(self) -> IntArray:
-        """``(n, 2)`` global LAGS_C, LAGS_F1 dof (-1: absent)."""
+        """``(n, d)`` global LAGS_C, LAGS_F1, [LAGS_F2] dof (-1: absent)."""
         return self._global("lag_global", self.lag_local)
 
     # -- vectors ------------------------------------------------------------
@@ -254,4 +255,6 @@ class DofLayout:
             "LAGS_C": int(self.multiplier[owned].sum()),
             "LAGS_F1": int(self.multiplier[owned].sum()),
         }
+        if d == 3:
+            local["LAGS_F2"] = local["LAGS_F1"]
         return {k: mpi.allreduce(v) for k, v in local.items()}

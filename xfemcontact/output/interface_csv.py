@@ -15,6 +15,14 @@ Columns: curve, s (m), x, y (m), cell (input cell index), LAGS_C (Pa),
 LAGS_F1 (-), gap, slip (m, normal and tangential jump), contact (1/0),
 sliding (1/0); and ``<field>_ref``, ``<field>_err`` (computed - reference)
 for each of LAGS_C, LAGS_F1, gap, slip with a ``[reference]`` formula.
+
+3-D (:func:`build3d`): the interface is a surface; the rows are the Gauss points of
+its facets (one row per point of non-zero weight), ordered by input cell and
+point, columns x, y, z (m), cell, w (the point's area weight, m^2), LAGS_C (Pa),
+LAGS_F1, LAGS_F2 (-: the tangential traction's components in the tangent basis
+(t1, t2) over mu s), T (Pa, its magnitude), gap, slip1, slip2 (m, [u].n,
+[u].t1, [u].t2), slip (m, the magnitude of the tangential jump), contact,
+sliding, and the reference columns (formulas of x, y, z).
 """
 from __future__ import annotations
 
@@ -42,6 +50,8 @@ if TYPE_CHECKING:
     References = Mapping[str, Formula | TimeFormula]
 
 COLUMNS = ("curve", "s", "x", "y", "cell", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding")
+COLUMNS_3D = ("x", "y", "z", "cell", "w", "LAGS_C", "LAGS_F1", "LAGS_F2", "T", "gap", "slip1", "slip2", "slip",
+              "contact", "sliding")
 REFERENCE_FIELDS = ("LAGS_C", "LAGS_F1", "gap", "slip")
 INTEGER_COLUMNS = ("curve", "cell", "contact", "sliding")
 #: points per segment on the dense polylines drawn in the plots
@@ -70,8 +80,11 @@ def build(model: Model) -> InterfaceTable | None:
     v = model.interface_values()
     if v is None:
         return None
+    if model.mesh.dim == 3:
+        return build3d(model, v)
     problem, mesh = model.problem, model.mesh
     assert problem is not None                  # interface values come from the problem
+    assert problem.segments is not None          # 2-D
     k = len(problem.segments)
     ends = {key: np.asarray(a).reshape(2, k).T for key, a in v.items()}       # (k, 2): P1, P2
     segs = problem.segments
@@ -86,6 +99,32 @@ def build(model: Model) -> InterfaceTable | None:
     ends = {key: a[order] for key, a in ends.items()}
     seg = {key: a[order] for key, a in seg.items()}
     return tabulate(ends, seg, mesh.element, model.case.reference)
+
+
+def build3d(model: Model, v: dict[str, NDArray[Any]]) -> InterfaceTable | None:
+    """3-D: the table of the facets' Gauss points ``v`` of every process on rank 0
+    (see the module documentation; ``length`` is the area, m^2).  Collective."""
+    parts = model.comm.tompi4py().gather(v, root=0)
+    if parts is None:
+        return None
+    allv = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+    order = np.lexsort((allv["end"], allv["cell"]))
+    cols = {c: allv[c][order] for c in COLUMNS_3D}
+    table = InterfaceTable(cols, [], float(cols["w"].sum()))
+    reference = model.case.reference
+    for f in REFERENCE_FIELDS:
+        formula = reference.get(f) if reference else None
+        if formula is None:
+            continue
+        try:
+            ref = np.broadcast_to(np.asarray(formula(x=cols["x"], y=cols["y"], z=cols["z"]), dtype=float),
+                                  cols["x"].shape).copy()
+        except Exception as exc:           # a formula invalid somewhere on the interface
+            table.warnings.append(f"reference.{f}: not evaluated on the interface ({exc})")
+            continue
+        cols[f + "_ref"] = ref
+        cols[f + "_err"] = cols[f] - ref
+    return table
 
 
 def tabulate(ends: dict[str, NDArray[Any]], seg: dict[str, NDArray[Any]], el: Element,

@@ -82,7 +82,10 @@ def interface_table(model: Model) -> dict[str, list[Any]] | None:
         return None
     allv = {k: np.concatenate([p[k] for p in parts]) for k in v}
     order = np.lexsort((allv["end"], allv["cell"]))
-    keys = ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding", "cell", "end")
+    keys: tuple[str, ...] = ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding", "cell", "end")
+    if model.mesh.dim == 3:             # the facets' Gauss points (interface_csv.build3d)
+        keys = ("x", "y", "z", "w", "LAGS_C", "LAGS_F1", "LAGS_F2", "T", "gap", "slip1", "slip2", "slip",
+                "contact", "sliding", "cell", "end")
     return {k: allv[k][order].tolist() for k in keys}
 
 

@@ -524,7 +524,7 @@ def line_jobs(title: str, table: InterfaceTable | None = None, history: Sequence
     """The plots that need only the interface table and the iteration record, as jobs
     ``[(png name, function name, args)]`` (see :func:`run`)."""
     jobs: list[Job] = []
-    if table is not None and len(table.columns["s"]):
+    if table is not None and len(table.columns.get("s", ())):
         jobs.append(("plot_multipliers.png", "multipliers_figure", (table.columns, title, table.curves)))
     if history is not None and iterations and len(iterations.get("newton_per_solve", [])) > 1:
         jobs.append(("plot_convergence.png", "convergence_figure", (history, iterations, title, criterion,
@@ -544,7 +544,7 @@ def mesh_jobs(title: str, post: PostMesh | None = None, table: InterfaceTable | 
             float(np.nan_to_num(np.hypot(post.point_data["DX"], post.point_data["DY"])).max())
         size = float(np.max(_column_max(post.points) - _column_min(post.points))) or 1.0
     jobs: list[Job] = []
-    if table is not None and len(table.columns["s"]):
+    if table is not None and len(table.columns.get("s", ())):
         jobs.append(("plot_status.png", "status_figure", (table.columns, title, umax, friction)))
     if post is not None and post.points.shape[1] == 2:          # the deformed mesh is drawn in 2-D only
         data = deformed_data(post.points, post.blocks, post.point_data, post.cell_data,

@@ -51,7 +51,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike, NDArray
 
     from xfemcontact.model import Model
-    from xfemcontact.xfem.integration import CellPoints
+    from xfemcontact.xfem.integration import CellPoints, SegmentPoints
 
     FloatArray = NDArray[np.float64]
     IntArray = NDArray[np.int64]
@@ -245,15 +245,16 @@ def interface_samples(model: Model) -> Columns | None:
     (its ends, mid-point and quarter points).  Collective (reads remote dofs).
 
     Returns a dict of flat arrays: x, y (m), cell (input cell id), LAGS_C (Pa),
-    LAGS_F1, contact, sliding; None without multipliers.
+    LAGS_F1, contact, sliding; None without multipliers (and in 3-D).
     """
     problem = model.problem
-    if problem is None or problem.space is None:
-        return None
+    if problem is None or problem.space is None or problem.segments is None:
+        return None                     # 3-D: the post mesh has no interface fields yet
     mesh, el = model.mesh, model.mesh.element
     segs = problem.segments
     xi, x, _ = segment_curve(el, mesh.x[mesh.cell_nodes[segs.cells]], segs.nodes, SEGMENT_POINTS)
-    near = np.argmin(np.abs(problem.points.s[None, :] - SEGMENT_POINTS[:, None]), axis=1)   # (5,)
+    pts = cast("SegmentPoints", problem.points)          # 2-D: a segments' problem
+    near = np.argmin(np.abs(pts.s[None, :] - SEGMENT_POINTS[:, None]), axis=1)   # (5,)
     v = problem.segment_values(model.x, xi, near)
     if v is None:                       # no multipliers (not a contact problem)
         return None

@@ -18,7 +18,7 @@ weights (and a point inside the parent).
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -182,3 +182,70 @@ def cut_face_points(el: Element, xc: FloatArray, sub: SubTets, local_face: IntAr
     w = np.tile(we, ns * 4)[None, :] * area * live
     pts = FacetPoints(sub.cells, xi, x, w, n * live[..., None])
     return pts, np.repeat(side, nq, axis=1) * live
+
+
+def concat(parts: list[FacetPoints]) -> FacetPoints:
+    """One :class:`FacetPoints` of the rows of ``parts`` (cut cells, then the cells
+    owning interface faces: :meth:`~xfemcontact.xfem.geometry.Geometry.interface_points`),
+    padded to the largest number of points with zero weights and normals (padding
+    points repeat the row's first point, inside its cell)."""
+    npts = max((p.w.shape[1] for p in parts), default=1)
+
+    def pad(a: FloatArray, fill_first: bool) -> FloatArray:
+        extra = npts - a.shape[1]
+        if extra == 0:
+            return a
+        rep = np.repeat(a[:, :1], extra, axis=1) if fill_first else np.zeros((len(a), extra) + a.shape[2:])
+        return np.concatenate([a, rep], axis=1)
+
+    if not parts:
+        return FacetPoints(np.zeros(0, np.int64), np.zeros((0, 1, 3)), np.zeros((0, 1, 3)), np.zeros((0, 1)),
+                           np.zeros((0, 1, 3)))
+    return FacetPoints(np.concatenate([p.cells for p in parts]),
+                       np.concatenate([pad(p.xi, True) for p in parts]),
+                       np.concatenate([pad(p.x, True) for p in parts]),
+                       np.concatenate([pad(p.w, False) for p in parts]),
+                       np.concatenate([pad(p.normal, False) for p in parts]))
+
+
+#: a point's tangent t1 comes from the interface's axis unless the normal is within this
+#: (the sine of the angle) of it; then from the next axis (a cap of about 6 degrees)
+POLE = 0.1
+
+
+def interface_axis(n: FloatArray, weights: FloatArray, comm: Any = None) -> int:
+    """The coordinate axis (0, 1, 2) least aligned with the interface: the smallest
+    largest |n_i| over the points of non-zero weight (of every process when ``comm``,
+    an mpi4py communicator, is given), the first of equals to 1e-12."""
+    live = weights != 0
+    big = np.abs(n[live]).max(axis=0, initial=0.0) if live.any() else np.zeros(3)
+    if comm is not None:
+        from mpi4py import MPI
+
+        big = np.array(big, dtype=float)
+        comm.Allreduce(MPI.IN_PLACE, big, op=MPI.MAX)
+    return int(np.argmin(np.asarray(big) + 1e-12 * np.arange(3)))
+
+
+def tangent_basis(n: FloatArray, axis: int = 0) -> FloatArray:
+    """The tangent basis ``(..., 3, 2)`` (columns t1, t2) of unit normals ``n (..., 3)``:
+    t1 the unit projection of the coordinate axis ``axis`` (:func:`interface_axis`) on
+    the tangent plane, t2 = n x t1, so that (t1, t2, n) is right-handed.  Where the
+    normal is within :data:`POLE` of the axis, the next axis (``axis + 1`` mod 3) is
+    projected instead.  Deterministic, constant on a plane, continuous on a curved
+    surface except across the edge of those caps (no tangent field of a sphere is
+    continuous everywhere).  Zero where n is zero (padding)."""
+    def projected(ax: int) -> tuple[FloatArray, FloatArray]:
+        e = np.zeros(3)
+        e[ax] = 1.0
+        t = e - n[..., ax:ax + 1] * n
+        return t, np.linalg.norm(t, axis=-1, keepdims=True)
+
+    t1, nt = projected(axis)
+    t1b, ntb = projected((axis + 1) % 3)
+    pole = nt < POLE
+    t1, nt = np.where(pole, t1b, t1), np.where(pole, ntb, nt)
+    live = np.linalg.norm(n, axis=-1, keepdims=True) > 0
+    t1 = np.where(live & (nt > 0), t1 / np.where(nt > 0, nt, 1.0), 0.0)
+    t2 = np.cross(n, t1)
+    return np.stack([t1, t2], axis=-1)

@@ -21,8 +21,9 @@ if TYPE_CHECKING:
     from xfemcontact.contact.problem import InterfaceProblem, InterfaceSetup
     from xfemcontact.contact.space import MultiplierSpace
     from xfemcontact.mesh.plex import LocalMesh
-    from xfemcontact.xfem.cut import Segments
+    from xfemcontact.xfem.geometry import Geometry
     from xfemcontact.xfem.integration import SegmentPoints
+    from xfemcontact.xfem.integration3d import FacetPoints
 
 
 class InterfaceLaw:
@@ -35,11 +36,12 @@ class InterfaceLaw:
     separate_bodies: bool = False
     case_tables: tuple[str, ...] = ()
 
-    def multiplier_space(self, mesh: LocalMesh, segments: Segments, points: SegmentPoints,
+    def multiplier_space(self, mesh: LocalMesh, geo: Geometry, points: SegmentPoints | FacetPoints,
                          case: Any) -> MultiplierSpace | None:
         """The multiplier space of the interface (None: no multipliers).
 
-        ``points``: the Gauss points of ``segments``; ``case``: the
+        ``points``: the Gauss points of the interface of ``geo`` (2-D: of
+        ``geo.segments()``; 3-D: of its facets, cut cells then interface faces); ``case``: the
         :class:`~xfemcontact.case.load.Case` (not imported: the case package
         imports the laws)."""
         return None

@@ -20,8 +20,9 @@ if TYPE_CHECKING:
     from xfemcontact.contact.problem import InterfaceProblem, InterfaceSetup
     from xfemcontact.contact.space import MultiplierSpace
     from xfemcontact.mesh.plex import LocalMesh
-    from xfemcontact.xfem.cut import Segments
+    from xfemcontact.xfem.geometry import Geometry
     from xfemcontact.xfem.integration import SegmentPoints
+    from xfemcontact.xfem.integration3d import FacetPoints
 
 
 class Contact(InterfaceLaw):
@@ -32,11 +33,14 @@ class Contact(InterfaceLaw):
     multipliers = True
     case_tables = ("contact",)
 
-    def multiplier_space(self, mesh: LocalMesh, segments: Segments, points: SegmentPoints,
+    def multiplier_space(self, mesh: LocalMesh, geo: Geometry, points: SegmentPoints | FacetPoints,
                          case: Any) -> MultiplierSpace:
         from xfemcontact.contact import space
 
-        return space.build(mesh, segments, case.contact.algo_lagr,
+        if mesh.dim == 3:
+            return space.build3d(mesh, points.cells, geo.phi, mesh.element.shape_linear(points.xi), points.w,
+                                 case.contact.algo_lagr)
+        return space.build(mesh, geo.segments(), case.contact.algo_lagr,
                            mesh.element.shape_linear(points.xi), points.w)
 
     def problem(self, setup: InterfaceSetup) -> InterfaceProblem:
