@@ -99,6 +99,13 @@ OPTIONS = {o.name: o for o in (
            "friction dof: LAGS_F1 (code_aster's semi-multiplier) or TRACTION (the tangential "
            "traction: fewer factorisations); overrides the case's contact.friction_unknown",
            choices=("LAGS_F1", "TRACTION"), default_doc="the case's contact.friction_unknown"),
+    Option("friction_newton", "choice",
+           "how the Newton of integration = NOEUD treats Coulomb's law: COULOMB (a semi-smooth "
+           "Newton on the whole law: the friction bound -mu LAGS_C of the iterate, contact and "
+           "friction statuses updated at every Newton iteration) or TRESCA (the bound of the "
+           "threshold loop, contact statuses in the status loop: the fixed point of earlier "
+           "versions, slower)",
+           choices=("COULOMB", "TRESCA"), default_doc="COULOMB in 2-D, TRESCA in 3-D"),
     Option("mesh_max_mb", "float",
            "largest amount of data (MB) a mesh file may declare (node coordinates, cells, "
            "fields, after decompression); larger files are refused before they are read",

@@ -286,14 +286,17 @@ CONTACT = Table({
                        "code_aster's continuous method at the interface Gauss points",
                        default="NOEUD", choices=("NOEUD", "GAUSS")),
     "coef_cont": Key("float", "contact augmentation coefficient in Pa/m (default: E / h, h the "
-                     "mean edge length of the cut cells)", gt=0),
+                     "mean edge length of the cut cells); integration = GAUSS (NOEUD writes exact "
+                     "conditions at the dofs: no augmentation, the rows are scaled by E / h)", gt=0),
     "coef_frot": Key("float", "friction augmentation coefficient in 1/m (default: E / (h mu |p|), "
-                     "p the largest initial friction threshold)", gt=0),
+                     "p the largest initial friction threshold); integration = GAUSS, as coef_cont",
+                     gt=0),
     "contact_init": Key("choice", "initial contact status", default="OUI",
                         choices=("OUI", "NON", "INTERPENETRE"),
                         values={"OUI": True, "NON": False, "INTERPENETRE": "interpenetrated"},
                         booleans=True),
-    "seuil_init": Key("float", "initial friction threshold in Pa, negative = compression"),
+    "seuil_init": Key("float", "initial friction threshold in Pa, negative = compression "
+                      "(integration = GAUSS; NOEUD starts from the sticking solution)"),
     "iter_cont_maxi": Key("int", "most contact status iterations", default=30, ge=1,
                           le=MAX_ITERATIONS),
     "iter_frot_maxi": Key("int", "most friction threshold iterations whose status loop ran to its end "

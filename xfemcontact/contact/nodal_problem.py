@@ -21,7 +21,31 @@ element and carrier slot ``(k, m)``: every element holding a dof computes the
 same value from the same assembled inputs, on every process.  The dependent
 vertices are numbered over every process; their values are reduced over MPI.
 
-Loops (the protocol of :mod:`xfemcontact.contact.problem`):
+Loops (the protocol of :mod:`xfemcontact.contact.problem`), with Coulomb's law in
+Newton (``-xfc_friction_newton COULOMB``, the default):
+
+* the first Newton solve sticks wherever CONTACT_INIT puts contact (friction
+  unbounded, statuses held: a linear problem, well posed for a body held by the
+  interface alone), whatever SEUIL_INIT;
+* from there Newton (inner SNES) is a semi-smooth Newton on the whole law: at every
+  Jacobian the contact statuses (the rules of :func:`nodal.contact_status`) and the
+  friction statuses (:func:`nodal.friction_status`) are those of the iterate, and
+  the friction bound of a dof is mu |LAGS_C| of the iterate, so that a slipping dof
+  carries -mu LAGS_C p: its derivative couples the tangential traction to the
+  pressure (:meth:`NodalContactProblem.coupling`, the non-symmetric part of the
+  tangent, applied beside the factorised symmetric part:
+  :mod:`xfemcontact.solver.operator`).  A converged Newton solve is a solution of the
+  conditions of :mod:`xfemcontact.contact.nodal` with s = LAGS_C: the status and
+  threshold loops then find nothing to change;
+* *guard*: active sets can cycle or chatter (their Schur complement is no P-matrix:
+  the Coulomb coupling, tiny or negative lumped weights, stick/slip limits).  When
+  Newton meets again statuses it has had in this threshold iteration, or a dof has
+  changed its friction status :data:`CHATTER_FLIPS` times, the load step goes on with
+  the threshold fixed point below (the bound frozen at mu |LAGS_C| of the iterate, the
+  contact statuses left to the status loop, its own safeguards); the next load step
+  starts with Coulomb's law in Newton again.
+
+With ``-xfc_friction_newton TRESCA`` (the fixed point of earlier versions):
 
 * Newton (inner SNES): contact statuses and thresholds fixed; the friction
   statuses are updated at every Jacobian from the current iterate, a
@@ -40,6 +64,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from mpi4py import MPI
 
+from xfemcontact import options
 from xfemcontact._petsc import PETSc
 from xfemcontact.contact import nodal
 from xfemcontact.contact.dofmap import multiplier_dofs
@@ -75,6 +100,12 @@ HISTORY_ZERO = 1e-9
 DEGENERATE = 1e-8
 #: the range of the row scales COEF_CONT and mu COEF_FROT |p|, in units of E / h
 ROW_SCALES = (1e-8, 1e8)
+#: with Coulomb's law in Newton: a dof whose friction status changed this many times within a
+#: threshold iteration ends it for the load step (the guard, module documentation).  Measured on
+#: SSNV509 with mu = 0.3 (cases/validation/low_friction.toml), whose stick/slip limit chatters:
+#: 107 Newton iterations without it; 70, 20, 33 and 21 (not converged) with 4, 6, 8 and 12.  With
+#: 4 or 6 the arc on Gmsh quadrangles of the sliding campaign did not converge, with 8 it did
+CHATTER_FLIPS = 8
 #: a dof whose friction status changed this many times within one threshold iteration keeps
 #: it until the next one (semi-smooth Newton can chatter between stick and slip near the
 #: limits of wrong thresholds, SSNV509 with mu = 0.3 did, while Newton converges only when
@@ -142,16 +173,35 @@ class NodalContactProblem(InterfaceProblem):
         self.warnings = []
         self._coef_frot, self._h = scales.coef_frot, scales.h
         self._kappa = setup.case.material.E / scales.h     # Pa/m: weighs the rows of the dofs
-        self.rho_n = self._row_scale(scales.coef_cont, "coef_cont", "Pa/m")
+        #: Coulomb's law in Newton (module documentation); False: the threshold fixed point
+        # (3-D: the slip direction is a status of that fixed point, not yet in the tangent, and
+        # Coulomb's law in Newton converges only linearly there: box_incline_slip_tetra10 did not
+        # converge in 20 Newton iterations; the threshold loop stays the default in 3-D)
+        self.coulomb_newton = options.get("friction_newton", "COULOMB" if self._nf == 1 else "TRESCA") == "COULOMB"
+        self._given = (c.coef_cont, c.coef_frot)
         self._kappa_rows = None
-        self.rho_T = None                                                 # Pa/m, see _set_rho_T
+        if self.coulomb_newton:
+            # the rows of inactive and slipping dofs are scaled by E/h: COEF_CONT and COEF_FROT
+            # would only scale them (the conditions hold exactly whatever the scales), and a
+            # scale far from the others' lets round-off decide statuses at their limits
+            # (measured: COEF_CONT = 1e4 E/h ended two curved campaign cases after 30 Newton
+            # iterations, 25 and 18 with E/h)
+            self.rho_n, self.rho_T = self._kappa, self._kappa
+        else:
+            self.rho_n = self._row_scale(scales.coef_cont, "coef_cont", "Pa/m")
+            self.rho_T = None                                             # Pa/m, see _set_rho_T
         shape = self.rep_index.shape
         start = 1 if c.contact_init is not False else 0
         self.chi = np.where(self.slot, start, 0)                          # dof contact statuses
         fshape = (shape[0], self._nf * shape[1])
         self.slip = np.zeros(fshape)           # dof friction statuses (3-D: slip direction p1, p2)
         self.extrapolated = np.ones(self.n_dep, bool)                     # dependent vertices' mode
+        self.guards = 0               # guards met (results.json)
+        self.guarded = False          # the guard: the threshold fixed point for the rest of the step
+        self._guard_now = False       # the same for one evaluation of the residual
         s0 = -abs(float(c.seuil_init)) if (c.seuil_init is not None and self.friction) else 0.0
+        if self.coulomb_newton:
+            s0 = 0.0                  # the first solve sticks (module documentation)
         self.unbounded = self.friction and s0 == 0.0         # first thresholds from a sticking solve
         self.free_start = False
         self.s = np.where(self.slot, s0, 0.0)
@@ -168,11 +218,20 @@ class NodalContactProblem(InterfaceProblem):
         self._dof_id = ids                       # input id of each slot's dof (partition-free order)
         self._mark = ((ids * 2654435761) % 4294967296) / 4294967296.0 + 0.5
         self._seen_contact, self._seen_slip = set(), set()
+        self._seen_states: set[tuple[float, float]] = set()     # Newton's (contact, friction) statuses
+        self._coupling: FloatArray | None = None
         self._flips = np.zeros(fshape, np.int64)   # friction status changes of each slot in this threshold iteration
         self._accelerated = self._threshold_update()
         self._h0 = None                          # jump dofs at the start of the step (None: 0)
         self._floor_lam = self._floor_gap = 0.0  # round-off scales of the previous steps
         self.carried_thresholds = False          # thresholds of a previous step's solution
+
+    @property
+    def _in_newton(self) -> bool:
+        """Coulomb's law and the contact statuses are Newton's now (not in the sticking
+        start, not after the cycle guard)."""
+        return self.coulomb_newton and not (self.guarded or self._guard_now or self.unbounded
+                                            or self.free_start)
 
     def _threshold_update(self):
         return ThresholdUpdate(
@@ -356,6 +415,10 @@ class NodalContactProblem(InterfaceProblem):
         """The friction statuses the rules give at ``x`` from the committed ones, and
         the values they come from: ``(slip, h, lam, T, active, bound)``."""
         ve, h, lam, T = self._values(x)
+        if self._in_newton and self.friction:
+            # Coulomb in Newton: the bound is mu |LAGS_C| of this iterate (and s follows
+            # LAGS_C, so that the threshold loop and the results see the bound used)
+            self.s = np.where(self.slot, self._threshold(lam), 0.0)
         active, bound = self._fbounds()
         gt = self._mean_slip(h if self._h0 is None else h - self._h0, lam.shape)
         # the round-off of the slips: on the scale of the slip (of the step, and after
@@ -373,10 +436,15 @@ class NodalContactProblem(InterfaceProblem):
             status = self._components(nodal.friction_direction(
                 self._split(self.slip), active[:, :self._m], self._split(T), self._split(gt),
                 bound[:, :self._m], STATUS_SCALE * self._kappa, nodal.ROUNDOFF * scale))
-        status = np.where(self._flips >= MAX_FLIPS, self.slip, status)
+        if not self._in_newton:
+            # (with Coulomb in Newton a held status would end in a state that is no
+            # solution; the cycle guard handles chattering there)
+            status = np.where(self._flips >= MAX_FLIPS, self.slip, status)
         if self._nf > 1:          # a direction that moved by round-off only is the same status
             status = np.where(self._changed(status, self.slip), status, self.slip)
-        return self._no_cycle(self.slip, status, self._seen_slip), h, lam, T, active, bound
+        if not self._in_newton:          # (with Coulomb in Newton: the cycle guard of _terms)
+            status = self._no_cycle(self.slip, status, self._seen_slip)
+        return status, h, lam, T, active, bound
 
     def _mean_slip(self, h, shape):
         """Mean slips ``gt (k, m)`` (m) at the dofs of the jump dofs ``h``."""
@@ -391,21 +459,62 @@ class NodalContactProblem(InterfaceProblem):
         """Vectors ``(k, m, nf)`` back to friction slots ``(k, nf m)``."""
         return v.transpose(0, 2, 1).reshape(v.shape[0], -1)
 
+    def _statuses(self, x, commit):
+        """The contact and friction statuses for the terms at ``x`` and the values they
+        come from: ``(chi, slip, h, lam, T, active, bound)``.  With Coulomb's law in
+        Newton the contact statuses are those of the rules at ``x`` too, unless Newton
+        has had them before in this threshold iteration (the cycle guard: the committed
+        contact statuses and the bound frozen from here on, for good with ``commit``).
+        ``self.chi`` is left as committed (``commit``: as found)."""
+        committed = self.chi
+        if self._in_newton:
+            self.chi = self._contact_at(x)
+        try:
+            slip, h, lam, T, active, bound = self._friction_statuses(x)
+            if self._in_newton and (self._fingerprint(self.chi), self._fingerprint(slip)) in self._seen_states:
+                self.chi = committed
+                if commit:
+                    self.guarded = True
+                    self.guards += 1
+                    self._flips[:] = 0
+                self._guard_now = True
+                try:
+                    slip, h, lam, T, active, bound = self._friction_statuses(x)
+                finally:
+                    self._guard_now = False
+            chi = self.chi
+        finally:
+            if not commit:
+                self.chi = committed
+        return chi, slip, h, lam, T, active, bound
+
     def _terms(self, x, commit=False):
-        """Everything the residual and the tangent need at ``x``; with ``commit`` the
-        friction statuses found at ``x`` become the committed ones."""
-        slip, h, lam, T, active, bound = self._friction_statuses(x)
+        """Everything the residual and the tangent need at ``x``: ``(h, terms, slipping)``
+        (``slipping``: the friction slots whose bound -mu LAGS_C is in Newton, None
+        without).  With ``commit`` the statuses found at ``x`` become the committed ones."""
+        committed = self.chi
+        in_newton = self._in_newton
+        chi, slip, h, lam, T, active, bound = self._statuses(x, commit)
         if commit:
+            if in_newton:
+                self._seen_states.add((self._fingerprint(committed), self._fingerprint(self.slip)))
             self._seen_slip.add(self._fingerprint(self.slip))
             self._flips += self._changed(slip, self.slip)
             self.slip = slip
+            if in_newton and self._mpi.allreduce(bool((self._flips >= CHATTER_FLIPS).any()), op=MPI.LOR):
+                self.guarded = True           # a dof chatters: the guard (module documentation)
+                self.guards += 1
+                self._flips[:] = 0
         rho_T = self.rho_T if self.rho_T is not None else self.rho_n
-        return h, nodal.terms(self.chi, slip, active, lam, T, bound, self._Dk, self.rho_n, rho_T, self._DkT,
-                              None if self._nf == 1 else self._sliding(slip))
+        slipping = None
+        if self._in_newton and self.friction:
+            slipping = active & self._sliding(slip) & (bound > 0)
+        return h, nodal.terms(chi, slip, active, lam, T, bound, self._Dk, self.rho_n, rho_T, self._DkT,
+                              None if self._nf == 1 else self._sliding(slip)), slipping
 
     # -- Newton ---------------------------------------------------------------------
     def add_residual(self, x: PETSc.Vec, f: PETSc.Vec) -> None:
-        h, t = self._terms(x)
+        h, t, _ = self._terms(x)
         Bn, Bt = self._Bn, self._Bt
         Rh = np.einsum("km,kmd->kd", t["cn"], Bn) + np.einsum("km,kmd->kd", t["ct"], Bt)
         Rl = t["wn"] * np.einsum("kmd,kd->km", Bn, h) + t["rl"]
@@ -418,8 +527,10 @@ class NodalContactProblem(InterfaceProblem):
         f.assemblyEnd()
 
     def tangent(self, x: PETSc.Vec) -> FloatArray:
-        """Element tangents ``(k, nd, nd)``; commits the friction statuses of ``x``."""
-        h, t = self._terms(x, commit=True)
+        """Element tangents ``(k, nd, nd)``: the symmetric part of the tangent (with
+        Coulomb's law in Newton, the coupling of the slipping dofs' traction to their
+        pressure is :meth:`coupling`); commits the statuses of ``x``."""
+        h, t, slipping = self._terms(x, commit=True)
         Bt = self._Bt
         k, nd = self.indices.shape
         nh, m = self._nh, self._m
@@ -434,7 +545,36 @@ class NodalContactProblem(InterfaceProblem):
         K[:, nh + i, nh + i] = t["kl"]
         j = np.arange(self._nf * m)
         K[:, nh + m + j, nh + m + j] = t["kT"]
+        self._coupling = self._coupling_terms(slipping)
         return K
+
+    def _coupling_terms(self, slipping):
+        """Element matrices ``(k, nd, nd)`` of the derivative of the slipping dofs' terms
+        with respect to their pressure (None: nothing slips with the bound in Newton).
+
+        A slipping friction slot j (dof a) carries the traction f_j = -mu lam_a p_j in the
+        equilibrium (rows of the jump dofs: f_j times the slot's slip operator) and its
+        row is D_j (T_j - f_j) / rho_T: d/d lam_a gives -mu p_j Bt_j and mu p_j D_j / rho_T."""
+        if slipping is None or not self._mpi.allreduce(bool(slipping.any()), op=MPI.LOR):
+            return None
+        nh, m = self._nh, self._m
+        k, nd = self.indices.shape
+        rho_T = self.rho_T if self.rho_T is not None else self.rho_n
+        dfix = np.where(slipping, -self.mu * self.slip, 0.0)                    # (k, nf m)
+        C = np.zeros((k, nd, nd))
+        j = np.arange(self._nf * m)
+        lam_col = nh + j % m
+        # jump rows: sum over slots j of dfix_j Bt_j in the column of lam_a
+        np.add.at(C, (slice(None), slice(None, nh), lam_col),
+                  (dfix[:, :, None] * self._Bt).transpose(0, 2, 1))
+        C[:, nh + m + j, lam_col] = -self._DkT * dfix / rho_T
+        return C
+
+    def coupling(self) -> FloatArray | None:
+        """The non-symmetric part of the last tangent, element matrices ``(k, nd, nd)``
+        (None: none, the tangent is symmetric).  With Coulomb's law in Newton the bound
+        of a slipping dof is -mu LAGS_C: its derivative (:meth:`_coupling_terms`)."""
+        return self._coupling
 
     def residual_norm(self, F: PETSc.Vec) -> float:
         """The norm of the residual ``F`` with the rows of the multiplier dofs weighed into
@@ -475,11 +615,18 @@ class NodalContactProblem(InterfaceProblem):
         (a stick row violated by a whole slip increment weighs D |slip|), so Newton's
         convergence also asks for settled statuses (a semi-smooth Newton converges when
         its active set stops changing)."""
+        contact = self._in_newton and bool(np.any((self._contact_at(x) != self.chi) & self.slot))
         if not self.friction:
-            return True
-        slip = self._friction_statuses(x)[0]
+            return not self._mpi.allreduce(contact, op=MPI.LOR)
+        committed = self.chi
+        if self._in_newton:
+            self.chi = self._contact_at(x)
+        try:
+            slip = self._friction_statuses(x)[0]
+        finally:
+            self.chi = committed
         changed = self._changed(slip, self.slip, DIRECTION_SETTLED)
-        return not self._mpi.allreduce(bool(np.any(changed & self.fslot)), op=MPI.LOR)
+        return not self._mpi.allreduce(contact or bool(np.any(changed & self.fslot)), op=MPI.LOR)
 
     def add_matrices(self, J: PETSc.Mat, K: FloatArray) -> None:
         self._op.add_matrices(J, K)
@@ -504,16 +651,14 @@ class NodalContactProblem(InterfaceProblem):
         if self.unbounded or self.free_start:
             return 0
         ve, h, lam, T = self._values(x)
-        D = self._mean_divisor()
-        gn = self._assembled(np.einsum("kmd,kd->km", self._Bn, h), np.zeros(self.fslot.shape))[0] / D
-        tol_lam = self._lam_zero(lam)
-        tol_gap = nodal.ROUNDOFF * max(self._gap_scale(h), self._floor_gap)
+        gn, tol_lam, tol_gap = self._gap_and_tolerances(h, lam)
         new = np.where(self.slot, nodal.contact_status(self.chi, lam, gn, tol_lam, tol_gap), 0)
         self._seen_contact.add(self._fingerprint(self.chi))
         weak = nodal.contact_status(self.chi, lam, gn, tol_lam * DEGENERATE / nodal.ROUNDOFF,
                                     tol_gap * DEGENERATE / nodal.ROUNDOFF) == self.chi
         new = self._no_cycle(self.chi, new, self._seen_contact, degenerate=weak)
         self._seen_slip.clear()
+        self._seen_states.clear()
         changed = new != self.chi
         # friction statuses that x contradicts (a Newton solve that started converged,
         # after a threshold update, evaluated no tangent): they count as changes too
@@ -527,6 +672,22 @@ class NodalContactProblem(InterfaceProblem):
         if switched:
             self._functions()
         return count + switched
+
+    def _gap_and_tolerances(self, h, lam):
+        """Mean gaps at the dofs ``(k, m)`` (m) and the round-off tolerances of the
+        contact tests (Pa, m)."""
+        D = self._mean_divisor()
+        gn = self._assembled(np.einsum("kmd,kd->km", self._Bn, h), np.zeros(self.fslot.shape))[0] / D
+        tol_lam = self._lam_zero(lam)
+        tol_gap = nodal.ROUNDOFF * max(self._gap_scale(h), self._floor_gap)
+        return gn, tol_lam, tol_gap
+
+    def _contact_at(self, x):
+        """The contact statuses the rules give at ``x`` from the committed ones
+        (Coulomb's law in Newton: a semi-smooth Newton on contact too)."""
+        ve, h, lam, T = self._values(x)
+        gn, tol_lam, tol_gap = self._gap_and_tolerances(h, lam)
+        return np.where(self.slot, nodal.contact_status(self.chi, lam, gn, tol_lam, tol_gap), 0)
 
     def _equilibrium_tractions(self, lam: FloatArray, T: FloatArray) -> tuple[FloatArray, FloatArray]:
         """The dof tractions ``(lam, T)`` the equilibrium of the current statuses
@@ -581,6 +742,7 @@ class NodalContactProblem(InterfaceProblem):
         ve, h, lam, T = self._values(x)
         self._seen_contact.clear()
         self._seen_slip.clear()
+        self._seen_states.clear()
         self._flips[:] = 0
         target = np.where(self.slot, self._threshold(lam), 0.0)
         if self.unbounded or not np.any(self._mpi.allgather(bool(np.count_nonzero(self.s)))):
@@ -667,6 +829,8 @@ class NodalContactProblem(InterfaceProblem):
         the contact pressures of ``x``.  ``first``: the first step (nothing changes)."""
         self._seen_contact.clear()
         self._seen_slip.clear()
+        self._seen_states.clear()
+        self.guarded = False
         self._flips[:] = 0
         self._accelerated = self._threshold_update()
         if first:
@@ -699,6 +863,8 @@ class NodalContactProblem(InterfaceProblem):
         self._floor_lam, self._floor_gap = (float(v) for v in st["floors"])
         self._seen_contact.clear()
         self._seen_slip.clear()
+        self._seen_states.clear()
+        self.guarded = False
         self._flips[:] = 0
         self._accelerated = self._threshold_update()
 
@@ -792,6 +958,9 @@ class NodalContactProblem(InterfaceProblem):
     def summary(self) -> dict[str, Any]:
         out = dict(self.space.summary())
         out.update({"integration": "NOEUD", "dependent_vertices": self.n_dep,
+                    "friction_newton": "COULOMB" if self.coulomb_newton else "TRESCA",
+                    "coef_cont_given": self._given[0], "coef_frot_given": self._given[1],
+                    "cycle_guards": self.guards,
                     "convex_dependent_vertices": int((~self.extrapolated).sum()),
                     "coef_cont": self.rho_n, "rho_T": self.rho_T, "h": self._h})
         return out

@@ -20,7 +20,9 @@ Newton (:class:`xfemcontact.model.Model`):
   ``pattern_points`` and ``remote_points``: the same as points of the matrix
   pattern (None: no interface element);
 * ``add_residual(x, f)``: ``f += R_interface(x)``;
-* ``tangent(x)``: the element tangents ``(k, nd, nd)`` at ``x`` (None: no terms);
+* ``tangent(x)``: the element tangents ``(k, nd, nd)`` at ``x`` (None: no terms), the
+  symmetric part that is factorised; ``coupling()``: the non-symmetric rest of that
+  tangent (None: none), applied by :mod:`xfemcontact.solver.operator`;
   ``add_matrices(J, K)``: ``J += K``; ``add_product(K, x, f, scale)``:
   ``f += scale K x``;
 * optional (the conditions at the dofs, in load steps): ``friction_settled(x)``
@@ -170,6 +172,11 @@ class InterfaceProblem:
         return None
 
     def tangent(self, x: PETSc.Vec) -> FloatArray | None:
+        return None
+
+    def coupling(self) -> FloatArray | None:
+        """The non-symmetric part of the last tangent, element matrices ``(k, nd, nd)``
+        that the Jacobian applies beside the factorised (symmetric) one (None: none)."""
         return None
 
     def add_matrices(self, J: PETSc.Mat, K: FloatArray) -> None:

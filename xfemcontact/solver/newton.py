@@ -37,12 +37,26 @@ DEFAULT_OPTIONS = {
 }
 
 
+#: options database keys holding our defaults (not the user's)
+_DEFAULTED: set[str] = set()
+
+
 def set_default_options(prefix: str = "") -> None:
     """Put our defaults in the options database where the user gave nothing."""
     opts = PETSc.Options()
     for key, value in DEFAULT_OPTIONS.items():
         if not opts.hasName(prefix + key):
             opts.setValue(prefix + key, value)
+            _DEFAULTED.add(prefix + key)
+
+
+def user_value(key: str) -> str | None:
+    """The value the user gave to the option ``key`` (without the dash), None when it
+    is absent or ours (:data:`DEFAULT_OPTIONS`)."""
+    opts = PETSc.Options()
+    if key in _DEFAULTED or not opts.hasName(key):
+        return None
+    return opts.getString(key)
 
 
 #: preconditioners that factor a symmetric matrix (SBAIJ storage by default)

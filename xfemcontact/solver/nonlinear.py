@@ -14,8 +14,9 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any, Protocol
 
 from xfemcontact._petsc import PETSc
+from xfemcontact.solver.coupled import CoupledJacobian
 from xfemcontact.solver.loops import LoopRecord, create_loops, solve_newton
-from xfemcontact.solver.newton import LoadRelativeTest, create_snes
+from xfemcontact.solver.newton import LoadRelativeTest, create_snes, user_value
 
 if TYPE_CHECKING:
     from xfemcontact.case.load import Case
@@ -77,6 +78,9 @@ class NonlinearSolver:
             self.comm, model.residual, self._jacobian, model.K, f,
             newton.resi_glob_rela, newton.iter_glob_maxi, lambda: model.load_norm,
             settled=settled, scaled=scaled)
+        # a tangent with a non-symmetric part (Coulomb's law in Newton): solver/coupled.py
+        self.coupled = (CoupledJacobian(model.K, model.problem, user_value("ksp_type"), user_value("pc_type"))
+                        if model.problem is not None else None)
         self.linear_failure: dict[str, Any] | None = None
         self.linear_warnings: list[str] = []
         self._info: dict[str, Any] | None = None
@@ -88,7 +92,9 @@ class NonlinearSolver:
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         self.jacobians += 1
-        self.model.jacobian(snes, x, J, P)
+        self.model.jacobian(snes, x, self.model.K, self.model.K)
+        if self.coupled is not None:
+            self.coupled.prepare(snes, self._jacobian)
 
     def solve(self, x: PETSc.Vec) -> int:
         """Solve from ``x`` (updated in place); the outermost converged reason."""
@@ -107,6 +113,8 @@ class NonlinearSolver:
         if self._info is None:
             self._info = self.info()
             self.newton.getKSP().reset()
+            if self.coupled is not None:
+                self.coupled.release()
 
     def info(self) -> dict[str, Any]:
         """Linear solver facts: type, Jacobians, MUMPS statistics when MUMPS factors."""
@@ -116,6 +124,8 @@ class NonlinearSolver:
         pc = ksp.getPC()
         info: dict[str, Any] = {"ksp": ksp.getType(), "pc": pc.getType(), "matrix": self.model.K.getType(),
                 "jacobians": self.jacobians}
+        if self.coupled is not None:
+            info["coupled_jacobians"] = self.coupled.coupled_jacobians
         try:
             info["solver"] = pc.getFactorSolverType()
         except Exception:      # not a factorising preconditioner
