@@ -140,7 +140,9 @@ def test_opening_releases_every_point(tmp_path):
     out = tmp_path / "o"
     assert run_cli(["run", CASES / "validation" / "opening.toml", "-o", out]).returncode == 0
     r = results(out)
-    assert r["iterations"]["status_changes"][0] > 0      # statuses changed
+    # statuses changed: inside Newton (Coulomb's law in Newton, the default: the semi-smooth
+    # Newton updates contact statuses at every iteration) or in the status loop (TRESCA)
+    assert r["iterations"]["newton"] > 1 or r["iterations"]["status_changes"][0] > 0
     assert not any(r["interface"]["contact"])
 
 

@@ -367,7 +367,7 @@ def test_petsc_options_in_use_are_accepted(petsc_options):
     (("-xfc_friction_unknown",), "-xfc_friction_unknown: needs a value (one of LAGS_F1, TRACTION)"),
     (("-xfc_frictionunknown", "traction"),
      "-xfc_frictionunknown: unknown option (did you mean -xfc_friction_unknown? known: "
-     "-xfc_friction_unknown, -xfc_mesh_max_mb, -xfc_memory_limit)"),
+     "-xfc_friction_unknown, -xfc_friction_newton, -xfc_mesh_max_mb, -xfc_memory_limit)"),
     (("-xfc_mesh_max_mb", "-5"), "-xfc_mesh_max_mb -5: out of range (expected a number > 0 and "
                                  "<= 1e+09)"),
 ])
@@ -453,15 +453,24 @@ def test_nan_residual_writes_results_and_plots_exit_3(tmp_path, edits):
 
 
 @pytest.mark.parametrize("key, value", [("coef_cont", "1.0e6"), ("coef_frot", "1000.0")])
-def test_absurd_coefficient_scaled_back_with_a_warning(tmp_path, key, value):
-    """At the dofs (NOEUD) the coefficients only scale rows: 1e300 (which overflowed to a
-    NaN residual) is scaled back to 1e8 E/h with a warning, and the answer is that of
-    the nominal coefficient."""
-    nominal = tmp_path / "nominal"
-    assert run_cli(["run", write_case(tmp_path, CONTACT), "-o", nominal], timeout=TIMEOUT).returncode == 0
-    out = tmp_path / "out"
-    proc = run_cli(["run", write_case(tmp_path, edited(CONTACT, (f"{key} = {value}", f"{key} = 1.0e300"))),
-                    "-o", out], timeout=TIMEOUT)
+def test_absurd_coefficient_changes_nothing_at_the_dofs(tmp_path, key, value):
+    """At the dofs (NOEUD) with Coulomb's law in Newton the coefficients do not enter (the
+    rows are scaled by E/h): 1e300 (which once overflowed to a NaN residual) gives the
+    nominal answer bit for bit, without a word.  With the threshold fixed point
+    (-xfc_friction_newton TRESCA) they scale rows: 1e300 is scaled back to 1e8 E/h with a
+    warning, and the answer is the nominal one."""
+    case = write_case(tmp_path, CONTACT)
+    absurd = write_case(tmp_path, edited(CONTACT, (f"{key} = {value}", f"{key} = 1.0e300")), "absurd.toml")
+    nominal, out = tmp_path / "nominal", tmp_path / "out"
+    assert run_cli(["run", case, "-o", nominal], timeout=TIMEOUT).returncode == 0
+    proc = run_cli(["run", absurd, "-o", out], timeout=TIMEOUT)
+    assert proc.returncode == 0, proc.stderr
+    assert "contact." not in proc.stderr
+    assert (out / "interface.csv").read_bytes() == (nominal / "interface.csv").read_bytes()
+    tresca = ["-xfc_friction_newton", "TRESCA"]
+    nominal, out = tmp_path / "nominal_t", tmp_path / "out_t"
+    assert run_cli(["run", case, "-o", nominal, *tresca], timeout=TIMEOUT).returncode == 0
+    proc = run_cli(["run", absurd, "-o", out, *tresca], timeout=TIMEOUT)
     assert proc.returncode == 0, proc.stderr
     assert f"contact.{key} = 1e+300" in proc.stderr and "1e+08 times E/h instead" in proc.stderr
     assert any(f"contact.{key}" in w for w in results(out)["warnings"])

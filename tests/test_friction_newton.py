@@ -1,0 +1,145 @@
+"""Coulomb's law in Newton (integration = "NOEUD", -xfc_friction_newton COULOMB, the default).
+
+The friction bound of a slipping dof is -mu LAGS_C of the iterate, contact and friction
+statuses are updated at every Newton iteration: a semi-smooth Newton on the whole law.
+Its tangent has a non-symmetric part (the slipping traction's dependence on the
+pressure), factorised by LU on an AIJ copy while something slips, and applied beside
+the LDL^T factors of the symmetric part when the user chooses a Krylov method.
+"""
+import csv
+import importlib.util
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import CASES, MESHES, ROOT, results, run_cli
+
+SLIP = CASES / "validation" / "slip_straight.toml"
+
+spec = importlib.util.spec_from_file_location("campaign", ROOT / "bench" / "campaign.py")
+campaign = importlib.util.module_from_spec(spec)
+sys.modules.setdefault("campaign", campaign)
+spec.loader.exec_module(campaign)
+
+
+def interface(out):
+    with open(out / "interface.csv") as f:
+        rows = list(csv.DictReader(f))
+    keys = ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip")
+    return {k: np.array([float(r[k]) for r in rows]) for k in keys}
+
+
+def run_ok(args, out, np_=None):
+    p = run_cli(["run", *args, "-o", out], np=np_)
+    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
+    return results(out)
+
+
+def test_coupling_is_the_derivative_of_the_residual():
+    """At a sliding state the Jacobian (assembled symmetric part plus the coupling) is the
+    derivative of the residual: central differences agree to 1e-6 relative."""
+    from xfemcontact.case import load_case
+    from xfemcontact.model import Model
+
+    model = Model.from_case(load_case(SLIP))
+    assert model.solve() > 0
+    problem = model.problem
+    x = model.x.copy()
+    # a direction of the pressures (LAGS_C dofs), where the coupling acts
+    rng = np.random.default_rng(3)
+    d = x.duplicate()
+    d.set(0.0)
+    nh, m = problem._nh, problem._m
+    lam_dofs = np.unique(problem.indices[:, nh:nh + m][problem.slot])
+    lo, hi = d.getOwnershipRange()
+    lam_dofs = lam_dofs[(lam_dofs >= lo) & (lam_dofs < hi)]
+    d.setValues(lam_dofs, rng.standard_normal(len(lam_dofs)) * 100.0)
+    d.assemble()
+    f0, f1, f2 = (x.duplicate() for _ in range(3))
+    model.residual(None, x, f0)                       # the statuses at x, then commit them
+    model.jacobian(None, x, model.K, model.K)
+    C = problem.coupling()
+    assert C is not None and np.abs(C).max() > 0      # something slips with its bound in Newton
+    Jd = x.duplicate()
+    model.K.mult(d, Jd)
+    problem.add_product(C, d, Jd)
+    eps = 1e-7 * x.norm() / d.norm()
+    xp, xm = x.copy(), x.copy()
+    xp.axpy(eps, d)
+    xm.axpy(-eps, d)
+    model.residual(None, xp, f1)
+    model.residual(None, xm, f2)
+    fd = (f1.getArray() - f2.getArray()) / (2 * eps)
+    jd = Jd.getArray()
+    assert np.abs(fd - jd).max() <= 1e-6 * np.abs(jd).max()
+    # without the coupling the difference is of the order of the coupling itself
+    Kd = x.duplicate()
+    model.K.mult(d, Kd)
+    assert np.abs(fd - Kd.getArray()).max() > 1e-3 * np.abs(jd).max()
+
+
+def test_both_newtons_give_the_same_answer(tmp_path):
+    """-xfc_friction_newton COULOMB (the default) and TRESCA (the threshold fixed point) end
+    on the same discrete solution, the former in fewer Newton iterations; the coupled
+    Jacobians are counted, factorised by LU."""
+    r1 = run_ok([SLIP], tmp_path / "c")
+    r2 = run_ok([SLIP, "-xfc_friction_newton", "TRESCA"], tmp_path / "t")
+    a, b = interface(tmp_path / "c"), interface(tmp_path / "t")
+    for f, scale in (("LAGS_C", 100.0), ("LAGS_F1", 1.0), ("gap", 1e-3), ("slip", 1e-3)):
+        assert np.abs(a[f] - b[f]).max() <= 1e-8 * scale, f
+    assert r1["multipliers"]["friction_newton"] == "COULOMB"
+    assert r2["multipliers"]["friction_newton"] == "TRESCA"
+    assert r1["iterations"]["newton"] < r2["iterations"]["newton"]
+    assert r1["linear_solver"]["coupled_jacobians"] > 0
+    assert r2["linear_solver"]["coupled_jacobians"] == 0
+
+
+def test_sticking_keeps_one_symmetric_factorisation(tmp_path):
+    """SSNV509 a sticks everywhere: nothing couples, one Newton iteration, one Cholesky
+    factorisation of the symmetric (SBAIJ) matrix."""
+    r = run_ok([CASES / "ssnv509a.toml"], tmp_path / "a")
+    ls = r["linear_solver"]
+    assert (ls["pc"], ls["matrix"], ls["jacobians"], ls["coupled_jacobians"]) == ("cholesky", "seqsbaij", 1, 0)
+    assert r["iterations"]["newton"] == 1
+
+
+def test_user_krylov_method_on_the_coupled_tangent(tmp_path):
+    """-ksp_type gmres: the coupling is applied beside the factors of the symmetric part;
+    the same answer."""
+    run_ok([SLIP], tmp_path / "lu")
+    run_ok([SLIP, "-ksp_type", "gmres", "-ksp_rtol", "1e-12", "-ksp_pc_side", "right"], tmp_path / "k")
+    a, b = interface(tmp_path / "lu"), interface(tmp_path / "k")
+    assert np.abs(a["LAGS_C"] - b["LAGS_C"]).max() <= 1e-8 * 100.0
+    assert np.abs(a["slip"] - b["slip"]).max() <= 1e-8 * 1e-3
+
+
+def test_bad_friction_newton_option(tmp_path):
+    p = run_cli(["run", SLIP, "-o", tmp_path / "o", "-xfc_friction_newton", "FAST"])
+    assert p.returncode == 2
+    assert "-xfc_friction_newton FAST: unknown value (expected one of COULOMB, TRESCA)" in p.stderr
+
+
+def test_cycle_guard(tmp_path):
+    """At the Coulomb limit on unstructured quadrangles (dofs with tiny lumped weights
+    at the ends of the interface) the active sets of the semi-smooth Newton cycle: the
+    guard freezes the bound until the next threshold update, and the run ends exact."""
+    c = {r.name: r for r in campaign.TABLE}["limit-D_q8u3x2_a+20_gen_nu0"]
+    path = tmp_path / "case.toml"
+    path.write_text(campaign.case_text(c, meshes=str(MESHES)))
+    r = run_ok([path], tmp_path / "o")
+    assert all(t["ok"] for t in r["tests"]), r["tests"]
+    assert r["multipliers"]["cycle_guards"] >= 1
+    assert r["iterations"]["newton"] <= 25
+
+
+@pytest.mark.parametrize("np_", [2, 3])
+def test_coupled_tangent_in_parallel(tmp_path, np_):
+    """The AIJ copy and its LU under mpirun: the one-process answer to 1e-10."""
+    run_ok([SLIP], tmp_path / "1")
+    run_ok([SLIP], tmp_path / "n", np_=np_)
+    a, b = interface(tmp_path / "1"), interface(tmp_path / "n")
+    ka = np.lexsort((a["y"].round(9), a["x"].round(9)))
+    kb = np.lexsort((b["y"].round(9), b["x"].round(9)))
+    for f, scale in (("LAGS_C", 100.0), ("LAGS_F1", 1.0), ("slip", 1e-3)):
+        assert np.abs(a[f][ka] - b[f][kb]).max() <= 1e-10 * scale, f
