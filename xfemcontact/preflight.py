@@ -313,9 +313,6 @@ def contact_3d_refusal(case: Case) -> str | None:
     if case.contact.integration == "GAUSS":
         return (f"{case.source}: contact.integration: \"GAUSS\" is not there in 3-D yet "
                 f"(3-D contact takes integration = \"NOEUD\", the default)")
-    if case.instants.given:
-        return (f"{case.source}: instants: load histories with contact are not there in 3-D yet "
-                f"(3-D contact is solved in one step: remove [instants])")
     return None
 
 
