@@ -289,7 +289,14 @@ class NodalContactProblem(InterfaceProblem):
         return np.where(np.abs(s) <= self._lam_zero(lam), 0.0, s)
 
     def _gap_scale(self, h):
-        return self._max(np.einsum("kvd,kd->kv", np.abs(self._An), np.abs(h)) / np.maximum(self._Wv, 1e-300))
+        """The scale (m) of the mean gaps: over the vertex rows whose weight is not
+        round-off (an interface along cell faces gives the cell's other vertices
+        weights of 1e-17, whose ratios would set the scale near 1e280 and hide every
+        interpenetration from the status test)."""
+        Wv = np.abs(self._Wv)
+        live = Wv > nodal.ROUNDOFF * self._max(Wv)
+        ratio = np.einsum("kvd,kd->kv", np.abs(self._An), np.abs(h)) / np.where(live, Wv, 1.0)
+        return self._max(np.where(live, ratio, 0.0))
 
     # -- cycles ---------------------------------------------------------------------
     def _fingerprint(self, values):
