@@ -516,6 +516,8 @@ class NodalContactProblem(InterfaceProblem):
         tol_lam = self._lam_zero(lam)
         tol_gap = nodal.ROUNDOFF * max(self._gap_scale(h), self._floor_gap)
         new = np.where(self.slot, nodal.contact_status(self.chi, lam, gn, tol_lam, tol_gap), 0)
+        if self.bilateral:                       # GLISSIERE: contact once made is kept
+            new = np.maximum(new, self.chi)
         self._seen_contact.add(self._fingerprint(self.chi))
         weak = nodal.contact_status(self.chi, lam, gn, tol_lam * DEGENERATE / nodal.ROUNDOFF,
                                     tol_gap * DEGENERATE / nodal.ROUNDOFF) == self.chi
@@ -552,7 +554,8 @@ class NodalContactProblem(InterfaceProblem):
         tractions ``lam``, ``T`` (:meth:`_equilibrium_tractions`) and the current
         thresholds."""
         T_ext = self.space.T
-        bad = self._dep_value(np.einsum("kvm,km->kv", T_ext, lam)) > tol_lam
+        tension = np.inf if self.bilateral else tol_lam         # GLISSIERE: tension is admissible
+        bad = self._dep_value(np.einsum("kvm,km->kv", T_ext, lam)) > tension
         if self.friction and not self.unbounded:
             active, bound = self._bounds()
             sw = self._dep_value(np.einsum("kvm,km->kv", T_ext, np.where(active, self.s, 0.0)))
