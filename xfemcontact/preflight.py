@@ -305,8 +305,7 @@ def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -
 
 def contact_3d_refusal(case: Case) -> str | None:
     """The one line refusing what contact in 3-D does not do yet (None: nothing refused):
-    code_aster's Gauss-point form (``integration = "GAUSS"``) and load histories
-    (``[instants]``) with contact."""
+    code_aster's Gauss-point form (``integration = "GAUSS"``)."""
     itf = case.interface
     if itf is None or not laws.get(itf.law).multipliers:
         return None
