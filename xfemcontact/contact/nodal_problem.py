@@ -230,7 +230,7 @@ class NodalContactProblem(InterfaceProblem):
         (any component)."""
         if self._nf == 1:
             return a
-        return a.reshape(a.shape[0], self._nf, -1).any(axis=1)
+        return a.reshape(a.shape[0], self._nf, self._m).any(axis=1)
 
     # -- assembly of dof and dependent-vertex sums ----------------------------------
     def _assembled(self, share_c, share_f):
@@ -392,11 +392,11 @@ class NodalContactProblem(InterfaceProblem):
 
     def _split(self, a):
         """``(k, nf m)`` friction-slot values as vectors ``(k, m, nf)`` in the tangent basis."""
-        return a.reshape(a.shape[0], self._nf, -1).transpose(0, 2, 1)
+        return a.reshape(a.shape[0], self._nf, self._m).transpose(0, 2, 1)
 
     def _components(self, v):
         """Vectors ``(k, m, nf)`` back to friction slots ``(k, nf m)``."""
-        return v.transpose(0, 2, 1).reshape(v.shape[0], -1)
+        return v.transpose(0, 2, 1).reshape(v.shape[0], self._nf * self._m)
 
     def _terms(self, x, commit=False):
         """Everything the residual and the tangent need at ``x``; with ``commit`` the
