@@ -815,7 +815,7 @@ def _check_case(case: Case, fail: Callable[[str, str], NoReturn]) -> None:
     _check_dimension(case, fail)
     law = laws.get(case.interface.law) if case.interface is not None else None
     if law is not None and "contact" in law.case_tables and case.contact.friction and not law.frictional:
-        fail("contact.frottement", f"law = {_show(case.interface.law)} is frictionless "
+        fail("contact.frottement", f"law = {_show(law.name)} is frictionless "
                                    f"({law.doc}): use frottement = \"SANS\"")
     for test in case.tests:
         if test.kind == "interface" and case.interface is None:
