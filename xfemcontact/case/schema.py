@@ -273,7 +273,8 @@ INTERFACE = Table({
                 refused={"FISSURE": _CRACK, "CRACK": _CRACK}),
     "level_set": formula("normal level set (FONC_LN), formula of x, y"),
     "level_set_field": Key("str", "name of nodal point data of the mesh file"),
-    "law": Key("choice", "interface behaviour", default="contact", choices=LAWS),
+    "law": Key("choice", "interface behaviour: " + "; ".join(f"{name} = {laws.get(name).doc}" for name in LAWS),
+               default="contact", choices=LAWS),
     "max_offset": Key("float", "largest distance accepted between the zero of level_set and "
                       "the interface the mesh represents, as a fraction of the cell size (beyond "
                       "it the case is refused: refine the mesh, or raise this)", default=0.5, gt=0),
