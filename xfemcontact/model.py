@@ -340,8 +340,8 @@ class Model:
         v = self.interface_values()
         if v is None:
             return {}
-        return {"interface": Samples(v["x"], v["y"], {k: v[k] for k in ("LAGS_C", "LAGS_F1", "gap", "slip")},
-                                     v.get("z"))}
+        names = ("LAGS_C", "LAGS_F1", "gap", "slip") + (("LAGS_F2",) if "LAGS_F2" in v else ())
+        return {"interface": Samples(v["x"], v["y"], {k: v[k] for k in names}, v.get("z"))}
 
     def displacement(self) -> FloatArray:
         """``(n, 2)`` DX, DY at this process's nodes, m."""

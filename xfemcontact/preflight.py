@@ -305,17 +305,13 @@ def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -
 
 def contact_3d_refusal(case: Case) -> str | None:
     """The one line refusing what contact in 3-D does not do yet (None: nothing refused):
-    code_aster's Gauss-point form (``integration = "GAUSS"``) and load histories
-    (``[instants]``) with contact."""
+    code_aster's Gauss-point form (``integration = "GAUSS"``)."""
     itf = case.interface
     if itf is None or not laws.get(itf.law).multipliers:
         return None
     if case.contact.integration == "GAUSS":
         return (f"{case.source}: contact.integration: \"GAUSS\" is not there in 3-D yet "
                 f"(3-D contact takes integration = \"NOEUD\", the default)")
-    if case.instants.given:
-        return (f"{case.source}: instants: load histories with contact are not there in 3-D yet "
-                f"(3-D contact is solved in one step: remove [instants])")
     return None
 
 

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, NoReturn
 
 from xfemcontact.case import schema
+from xfemcontact.contact import laws
 from xfemcontact.case.formula import (Condition, Formula, FormulaError, compile_condition,
                                       compile_formula)
 from xfemcontact.case.functions import Function, TimeFormula
@@ -812,6 +813,10 @@ def _check_case(case: Case, fail: Callable[[str, str], NoReturn]) -> None:
         fail("interface.level_set_field", f"needs a mesh file with point data (a {case.mesh.name} "
                                           f"mesh has none: use level_set = \"<formula>\")")
     _check_dimension(case, fail)
+    law = laws.get(case.interface.law) if case.interface is not None else None
+    if law is not None and "contact" in law.case_tables and case.contact.friction and not law.frictional:
+        fail("contact.frottement", f"law = {_show(law.name)} is frictionless "
+                                   f"({law.doc}): use frottement = \"SANS\"")
     for test in case.tests:
         if test.kind == "interface" and case.interface is None:
             fail(f"{test.key}.field", f"{test.field} is an interface field but the case has "

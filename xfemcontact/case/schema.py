@@ -55,16 +55,19 @@ from xfemcontact.contact import laws
 NODE_FIELDS = ("DX", "DY")
 CELL_FIELDS = ("SIXX", "SIYY", "SIXY")
 INTERFACE_FIELDS = ("LAGS_C", "LAGS_F1", "gap", "slip")
-#: the fields of 3-D cases (code_aster's Voigt order of the stresses)
+#: the fields of 3-D cases (code_aster's Voigt order of the stresses; LAGS_F2: the second
+#: friction semi-multiplier, along t2 of the tangent basis)
 NODE_FIELDS_3D = ("DX", "DY", "DZ")
 CELL_FIELDS_3D = ("SIXX", "SIYY", "SIZZ", "SIXY", "SIXZ", "SIYZ")
+INTERFACE_FIELDS_3D = INTERFACE_FIELDS + ("LAGS_F2",)
 #: the keys of 3-D components (imposed DZ, forces FZ): left out of the rules of 2-D cases
 KEYS_3D = ("DZ", "FZ")
 #: fields of 3-D cases only
-FIELDS_3D_ONLY = tuple(f for f in NODE_FIELDS_3D + CELL_FIELDS_3D if f not in NODE_FIELDS + CELL_FIELDS)
+FIELDS_3D_ONLY = tuple(f for f in NODE_FIELDS_3D + CELL_FIELDS_3D + INTERFACE_FIELDS_3D
+                       if f not in NODE_FIELDS + CELL_FIELDS + INTERFACE_FIELDS)
 #: field name -> where it lives: "node", "cell" or "interface"
 FIELD_KIND = {**dict.fromkeys(NODE_FIELDS_3D, "node"), **dict.fromkeys(CELL_FIELDS_3D, "cell"),
-              **dict.fromkeys(INTERFACE_FIELDS, "interface")}
+              **dict.fromkeys(INTERFACE_FIELDS_3D, "interface")}
 FIELDS = tuple(FIELD_KIND)
 #: field name -> the variables of a test's ``where`` condition on that field (2-D cases)
 CONDITION_VARIABLES = {
@@ -74,7 +77,7 @@ CONDITION_VARIABLES = {
 #: the same in 3-D cases
 CONDITION_VARIABLES_3D = {
     name: ("x", "y", "z") + {"node": NODE_FIELDS_3D, "cell": CELL_FIELDS_3D,
-                             "interface": INTERFACE_FIELDS}[kind]
+                             "interface": INTERFACE_FIELDS_3D}[kind]
     for name, kind in FIELD_KIND.items()}
 
 MESH_CELLS = ("QUAD8", "TRIA6")
@@ -270,7 +273,8 @@ INTERFACE = Table({
                 refused={"FISSURE": _CRACK, "CRACK": _CRACK}),
     "level_set": formula("normal level set (FONC_LN), formula of x, y"),
     "level_set_field": Key("str", "name of nodal point data of the mesh file"),
-    "law": Key("choice", "interface behaviour", default="contact", choices=LAWS),
+    "law": Key("choice", "interface behaviour: " + "; ".join(f"{name} = {laws.get(name).doc}" for name in LAWS),
+               default="contact", choices=LAWS),
     "max_offset": Key("float", "largest distance accepted between the zero of level_set and "
                       "the interface the mesh represents, as a fraction of the cell size (beyond "
                       "it the case is refused: refine the mesh, or raise this)", default=0.5, gt=0),

@@ -111,6 +111,8 @@ class GaussContactProblem(InterfaceProblem):
         """Apply the status test; returns the number of points (all processes) that changed."""
         g, ut, lam, Lam = self._fields(x)
         new = gauss_point.update_status(self.law, self._state.chi, g, lam)
+        if self.bilateral:                       # GLISSIERE: contact once made is kept
+            new = np.maximum(new, self._state.chi)
         changed = int((new != self._state.chi).sum())
         self._state.chi = new
         return self._mpi().allreduce(changed)

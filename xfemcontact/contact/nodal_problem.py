@@ -289,7 +289,7 @@ class NodalContactProblem(InterfaceProblem):
         (any component)."""
         if self._nf == 1:
             return a
-        return a.reshape(a.shape[0], self._nf, -1).any(axis=1)
+        return a.reshape(a.shape[0], self._nf, self._m).any(axis=1)
 
     # -- assembly of dof and dependent-vertex sums ----------------------------------
     def _assembled(self, share_c, share_f):
@@ -348,7 +348,14 @@ class NodalContactProblem(InterfaceProblem):
         return np.where(np.abs(s) <= self._lam_zero(lam), 0.0, s)
 
     def _gap_scale(self, h):
-        return self._max(np.einsum("kvd,kd->kv", np.abs(self._An), np.abs(h)) / np.maximum(self._Wv, 1e-300))
+        """The scale (m) of the mean gaps: over the vertex rows whose weight is not
+        round-off (an interface along cell faces gives the cell's other vertices
+        weights of 1e-17, whose ratios would set the scale near 1e280 and hide every
+        interpenetration from the status test)."""
+        Wv = np.abs(self._Wv)
+        live = Wv > nodal.ROUNDOFF * self._max(Wv)
+        ratio = np.einsum("kvd,kd->kv", np.abs(self._An), np.abs(h)) / np.where(live, Wv, 1.0)
+        return self._max(np.where(live, ratio, 0.0))
 
     # -- cycles ---------------------------------------------------------------------
     def _fingerprint(self, values):
@@ -453,11 +460,11 @@ class NodalContactProblem(InterfaceProblem):
 
     def _split(self, a):
         """``(k, nf m)`` friction-slot values as vectors ``(k, m, nf)`` in the tangent basis."""
-        return a.reshape(a.shape[0], self._nf, -1).transpose(0, 2, 1)
+        return a.reshape(a.shape[0], self._nf, self._m).transpose(0, 2, 1)
 
     def _components(self, v):
         """Vectors ``(k, m, nf)`` back to friction slots ``(k, nf m)``."""
-        return v.transpose(0, 2, 1).reshape(v.shape[0], -1)
+        return v.transpose(0, 2, 1).reshape(v.shape[0], self._nf * self._m)
 
     def _statuses(self, x, commit):
         """The contact and friction statuses for the terms at ``x`` and the values they
@@ -653,6 +660,8 @@ class NodalContactProblem(InterfaceProblem):
         ve, h, lam, T = self._values(x)
         gn, tol_lam, tol_gap = self._gap_and_tolerances(h, lam)
         new = np.where(self.slot, nodal.contact_status(self.chi, lam, gn, tol_lam, tol_gap), 0)
+        if self.bilateral:                       # GLISSIERE: contact once made is kept
+            new = np.maximum(new, self.chi)
         self._seen_contact.add(self._fingerprint(self.chi))
         weak = nodal.contact_status(self.chi, lam, gn, tol_lam * DEGENERATE / nodal.ROUNDOFF,
                                     tol_gap * DEGENERATE / nodal.ROUNDOFF) == self.chi
@@ -687,7 +696,8 @@ class NodalContactProblem(InterfaceProblem):
         (Coulomb's law in Newton: a semi-smooth Newton on contact too)."""
         ve, h, lam, T = self._values(x)
         gn, tol_lam, tol_gap = self._gap_and_tolerances(h, lam)
-        return np.where(self.slot, nodal.contact_status(self.chi, lam, gn, tol_lam, tol_gap), 0)
+        new = np.where(self.slot, nodal.contact_status(self.chi, lam, gn, tol_lam, tol_gap), 0)
+        return np.maximum(new, self.chi) if self.bilateral else new      # GLISSIERE: kept
 
     def _equilibrium_tractions(self, lam: FloatArray, T: FloatArray) -> tuple[FloatArray, FloatArray]:
         """The dof tractions ``(lam, T)`` the equilibrium of the current statuses
@@ -706,7 +716,8 @@ class NodalContactProblem(InterfaceProblem):
         tractions ``lam``, ``T`` (:meth:`_equilibrium_tractions`) and the current
         thresholds."""
         T_ext = self.space.T
-        bad = self._dep_value(np.einsum("kvm,km->kv", T_ext, lam)) > tol_lam
+        tension = np.inf if self.bilateral else tol_lam         # GLISSIERE: tension is admissible
+        bad = self._dep_value(np.einsum("kvm,km->kv", T_ext, lam)) > tension
         if self.friction and not self.unbounded:
             active, bound = self._bounds()
             sw = self._dep_value(np.einsum("kvm,km->kv", T_ext, np.where(active, self.s, 0.0)))

@@ -51,6 +51,10 @@ dofs or points whose statuses differ from ``state``; ``carried_thresholds``: the
 thresholds come from a converged step (the threshold loop may then stop at its
 first iteration).
 
+``bilateral`` (set by the law ``glissiere``, code_aster's GLISSIERE): contact once made
+is kept -- the status test never releases a dof or point in contact, and tension is
+admissible there.
+
 Results: ``point_values(x)`` (the interface points), ``segment_values(x, xi,
 near)`` (any points of the segments), ``summary()``, ``largest_threshold()``;
 read-only facts ``comm``, ``segments``, ``points``, ``space``, ``rep_index``,
@@ -130,6 +134,7 @@ class InterfaceProblem:
     friction: bool = False
     fallbacks: bool = False
     carried_thresholds: bool = False
+    bilateral: bool = False                  # GLISSIERE: contact once made is kept (the contact laws' problems)
     mu: float = 0.0
     friction_unknown: str = "semi-multiplier"     # what the friction dof holds: LAGS_F1, or the traction (Pa)
     indices: IntArray | None = None

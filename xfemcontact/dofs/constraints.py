@@ -48,7 +48,7 @@ def fixed_components(mesh: LocalMesh, case: Case, geo: Geometry | None, law: Int
     fixed = np.zeros((n, 2 * d), dtype=bool)
     values = np.zeros((n, d))
     for bc in case.dirichlet:
-        nodes = _group_nodes_everywhere(mesh, bc.groups)
+        nodes = group_nodes_everywhere(mesh, bc.groups)
         hnodes = _heaviside_nodes(mesh, geo, bc.groups) if geo is not None else np.zeros(0, int)
         for c, comp in enumerate(("DX", "DY", "DZ")[:d]):
             if comp in bc.components:
@@ -62,7 +62,7 @@ def fixed_components(mesh: LocalMesh, case: Case, geo: Geometry | None, law: Int
     return fixed, values
 
 
-def _group_nodes_everywhere(mesh: LocalMesh, groups: Iterable[str]) -> IntArray:
+def group_nodes_everywhere(mesh: LocalMesh, groups: Iterable[str]) -> IntArray:
     """Local nodes of ``groups`` as every process holding them sees them.  A process can
     hold a node of a group without the face or edge that puts it there (a cell touching
     the boundary face by an edge only, in 3-D): the flags are combined over the

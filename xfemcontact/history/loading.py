@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from xfemcontact.assembly import bulk, system
+from xfemcontact.dofs.constraints import group_nodes_everywhere
 from xfemcontact.fem import elasticity
 from xfemcontact.fem.coordinates import coordinates
 from xfemcontact.xfem import geometry as xgeo
@@ -82,7 +83,10 @@ class Loading:
         self.t: float | None = None
 
         def nodes_of(groups: tuple[str, ...]) -> IntArray:
-            return np.unique(np.concatenate([mesh.group_nodes(g) for g in groups])).astype(np.int64)
+            # as every process holding them sees them (collective): a process can hold a node
+            # of a face group through a cell touching the face by an edge only (3-D), and
+            # would leave its copy of the node free (constraints.fixed_components does the same)
+            return group_nodes_everywhere(mesh, groups)
 
         #: per [[dirichlet]]: its nodes (the values of a later one override an earlier one's)
         self._dirichlet = [(nodes_of(d.groups), d) for d in self.case.dirichlet]

@@ -29,6 +29,7 @@ from xfemcontact.history.loading import Loading
 from xfemcontact.post import testtable
 
 if TYPE_CHECKING:
+    from numpy.typing import NDArray
     from petsc4py import PETSc
 
     from xfemcontact.case.load import TestSpec
@@ -193,12 +194,7 @@ class Stepper:
                   "loads": path, "tests": [o.as_dict() for o in outcomes]}
         if table is not None:
             previous = self.steps[-1]["interface"] if self.steps and "interface" in self.steps[-1] else None
-            slip = np.asarray(table["slip"])
-            if previous is not None and len(previous["slip"]) == len(slip):
-                path_len = np.asarray(previous["slip_path"]) + np.abs(slip - np.asarray(previous["slip"]))
-            else:
-                path_len = np.abs(slip)
-            table["slip_path"] = path_len.tolist()
+            table["slip_path"] = slip_path(table, previous).tolist()
             record["interface"] = table
         self.steps.append(record if self.comm.rank == 0 else {k: v for k, v in record.items()
                                                               if k != "interface"})
@@ -216,6 +212,19 @@ class Stepper:
     def listed_steps(self) -> list[dict[str, Any]]:
         """The records of the steps at the instants of ``[instants]`` (not the cut ones)."""
         return [s for s in self.steps if s["listed"]]
+
+
+def slip_path(table: dict[str, Any], previous: dict[str, Any] | None) -> NDArray[np.float64]:
+    """The accumulated sliding distance (m) at each interface point of a step's interface
+    ``table``: the previous step's plus the length of this step's slip increment, |d slip|
+    in 2-D, |(d slip1, d slip2)| in 3-D (the components in the tangent basis, fixed in
+    time); ``previous``: the previous step's table (None: the first step)."""
+    parts = ("slip1", "slip2") if "slip1" in table else ("slip",)
+    now = np.array([table[c] for c in parts], dtype=float)               # (components, points)
+    if previous is None or len(previous["slip"]) != now.shape[1]:
+        return np.linalg.norm(now, axis=0)
+    before = np.array([previous[c] for c in parts], dtype=float)
+    return np.asarray(previous["slip_path"], dtype=float) + np.linalg.norm(now - before, axis=0)
 
 
 def _outcome(d: dict[str, Any]) -> testtable.Outcome:

@@ -22,7 +22,7 @@ point, columns x, y, z (m), cell, w (the point's area weight, m^2), LAGS_C (Pa),
 LAGS_F1, LAGS_F2 (-: the tangential traction's components in the tangent basis
 (t1, t2) over mu s), T (Pa, its magnitude), gap, slip1, slip2 (m, [u].n,
 [u].t1, [u].t2), slip (m, the magnitude of the tangential jump), contact,
-sliding, and the reference columns (formulas of x, y, z).
+sliding, and the reference columns (formulas of x, y, z; LAGS_F2 too).
 """
 from __future__ import annotations
 
@@ -52,7 +52,7 @@ if TYPE_CHECKING:
 COLUMNS = ("curve", "s", "x", "y", "cell", "LAGS_C", "LAGS_F1", "gap", "slip", "contact", "sliding")
 COLUMNS_3D = ("x", "y", "z", "cell", "w", "LAGS_C", "LAGS_F1", "LAGS_F2", "T", "gap", "slip1", "slip2", "slip",
               "contact", "sliding")
-REFERENCE_FIELDS = ("LAGS_C", "LAGS_F1", "gap", "slip")
+REFERENCE_FIELDS = ("LAGS_C", "LAGS_F1", "gap", "slip", "LAGS_F2")       # LAGS_F2: 3-D only
 INTEGER_COLUMNS = ("curve", "cell", "contact", "sliding")
 #: points per segment on the dense polylines drawn in the plots
 DENSE = 9

@@ -8,9 +8,10 @@
   rows per step, with the columns ``inst`` (first) and ``slip_path`` (the
   accumulated slip: the sum over the steps of |slip increment|, m) besides the
   one-step columns; reference columns evaluated at each instant;
-* ``plot_history.png``: LAGS_C, LAGS_F1 and the slip against time at five
-  interface points (s = 0, L/4, L/2, 3L/4, L along the first curve), and the
-  load path (each load's mean value over its group against time);
+* ``plot_history.png``: LAGS_C, LAGS_F1 (and LAGS_F2 in 3-D) and the slip against
+  time at five interface points (s = 0, L/4, L/2, 3L/4, L along the first curve; 3-D:
+  the first, last and quartile points along the coordinate the interface spans most),
+  and the load path (each load's mean value over its group against time);
 * the one-step plots and ``report.md`` of the last completed step.
 
 The fields of every step are rebuilt from its checkpoint (solution and contact
@@ -129,7 +130,8 @@ class _TimeSeries:
 def interface_rows(model: Model, stepper: Stepper) -> tuple[InterfaceTable | None, Columns | None]:
     """The interface.csv columns of every completed step (rank 0; None elsewhere or
     without interface): the last step's table (:func:`interface_csv.build`) gives the
-    row order and the curves, each step its values."""
+    row order (and the curves in 2-D), each step its values.  3-D: the facets' Gauss
+    points, the columns of :data:`interface_csv.COLUMNS_3D`."""
     table = interface_csv.build(model)
     if table is None or model.comm.rank != 0:
         return table, None
@@ -137,24 +139,24 @@ def interface_rows(model: Model, stepper: Stepper) -> tuple[InterfaceTable | Non
     if not steps:
         return table, None
     cols = table.columns
-    last = steps[-1]["interface"]
-    where = {(int(c), float(x), float(y)): i for i, (c, x, y) in
-             enumerate(zip(last["cell"], last["x"], last["y"]))}
-    rows = np.array([where.get((int(c), float(x), float(y)), -1)
-                     for c, x, y in zip(cols["cell"], cols["x"], cols["y"])])
-    if (rows < 0).any():          # cannot happen: same points at every step
+    three = model.mesh.dim == 3
+    rows = _rows_of(cols, steps[-1]["interface"], three)
+    if rows is None:               # cannot happen: same points at every step
         return table, None
-    names = ["inst"] + list(interface_csv.COLUMNS) + ["slip_path"]
+    columns = interface_csv.COLUMNS_3D if three else interface_csv.COLUMNS
+    fixed = ("x", "y", "z", "cell", "w") if three else ("curve", "s", "x", "y", "cell")
+    names = ["inst"] + list(columns) + ["slip_path"]
     out: dict[str, list[NDArray[Any]]] = {name: [] for name in names}
     ref_names = [f for f in interface_csv.REFERENCE_FIELDS if f in model.case.reference]
     for f in ref_names:
         out[f + "_ref"], out[f + "_err"] = [], []
+    coords = {c: cols[c] for c in (("x", "y", "z") if three else ("x", "y"))}
+    n = len(rows)
     for step in steps:
         values = step["interface"]
-        n = len(rows)
         out["inst"].append(np.full(n, step["inst"]))
-        for name in interface_csv.COLUMNS:
-            if name in ("curve", "s", "x", "y", "cell"):
+        for name in columns:
+            if name in fixed:
                 out[name].append(np.asarray(cols[name]))
             else:
                 out[name].append(np.asarray(values[name], dtype=float)[rows])
@@ -162,13 +164,24 @@ def interface_rows(model: Model, stepper: Stepper) -> tuple[InterfaceTable | Non
         for f in ref_names:
             formula = model.case.reference[f].at(step["inst"])
             try:
-                ref = np.broadcast_to(np.asarray(formula(x=cols["x"], y=cols["y"]), float),
-                                      (n,)).copy()
+                ref = np.broadcast_to(np.asarray(formula(**coords), float), (n,)).copy()
             except Exception:                   # invalid somewhere on the interface
                 ref = np.full(n, np.nan)
             out[f + "_ref"].append(ref)
             out[f + "_err"].append(np.asarray(values[f], dtype=float)[rows] - ref)
     return table, {k: np.concatenate(v) for k, v in out.items()}
+
+
+def _rows_of(cols: Columns, values: dict[str, Any], three: bool) -> NDArray[np.int64] | None:
+    """For each row of the table ``cols``, its index in a step's interface table ``values``
+    (the same points: matched by cell and coordinates); None if one is missing."""
+    keys = ("cell", "x", "y", "z") if three else ("cell", "x", "y")
+
+    def key(src: Any, i: int) -> tuple[float, ...]:
+        return tuple(float(src[k][i]) for k in keys)
+    where = {key(values, i): i for i in range(len(values["cell"]))}
+    rows = np.array([where.get(key(cols, i), -1) for i in range(len(cols["cell"]))], dtype=np.int64)
+    return None if (rows < 0).any() else rows
 
 
 def write_interface_csv(folder: OutputFolder, columns: Columns, name: str = "interface.csv") -> list[str]:
@@ -189,26 +202,11 @@ def history_figure(stepper: Stepper, table: InterfaceTable | None, title: str) -
     ts = np.r_[t0, [s["inst"] for s in steps]]
     panels: list[Panel] = []
     if table is not None and steps and "interface" in steps[-1]:
-        cols = table.columns
-        first = cols["curve"] == cols["curve"].min()
-        s = np.asarray(cols["s"])[first]
-        length = s.max() if len(s) else 0.0
-        last = steps[-1]["interface"]
-        where = {(int(c), float(x), float(y)): i for i, (c, x, y) in
-                 enumerate(zip(last["cell"], last["x"], last["y"]))}
-        picks: list[tuple[int, int]] = []          # (row of the table, index in the steps' tables)
-        for frac in HISTORY_POINTS:
-            j = int(np.argmin(np.abs(s - frac * length)))
-            row = np.flatnonzero(first)[j]
-            key = (int(cols["cell"][row]), float(cols["x"][row]), float(cols["y"][row]))
-            if key in where and where[key] not in [p[1] for p in picks]:
-                picks.append((row, where[key]))
-        for field, unit in (("LAGS_C", "Pa"), ("LAGS_F1", "-"), ("slip", "m")):
-            lines: list[tuple[str, NDArray[np.float64]]] = []
-            for row, i in picks:
-                v = np.r_[0.0, [st["interface"][field][i] for st in steps]]
-                label = f"s = {cols['s'][row]:.3g} m ({cols['x'][row]:.3g}, {cols['y'][row]:.3g})"
-                lines.append((label, v))
+        picks = _history_points(table, steps[-1]["interface"])
+        fields = (("LAGS_C", "Pa"), ("LAGS_F1", "-")) + \
+            ((("LAGS_F2", "-"),) if "LAGS_F2" in table.columns else ()) + (("slip", "m"),)
+        for field, unit in fields:
+            lines = [(label, np.r_[0.0, [st["interface"][field][i] for st in steps]]) for label, i in picks]
             panels.append((f"{field} ({unit})", lines))
     loads: dict[str, None] = {}                # labels, in order of appearance
     for st in steps:
@@ -237,6 +235,35 @@ def history_figure(stepper: Stepper, table: InterfaceTable | None, title: str) -
     axes[0].set_title(title.replace("$", r"\$"), fontsize=10)
     axes[-1].set_xlabel("instant t")
     return fig
+
+
+def _history_points(table: InterfaceTable, last: dict[str, Any]) -> list[tuple[str, int]]:
+    """The interface points the history plot follows, as (label, index in the steps'
+    interface tables): 2-D, at the fractions :data:`HISTORY_POINTS` of the first curve's
+    length; 3-D (no curves), at those fractions of the rows ordered along the coordinate
+    the interface spans most."""
+    cols = table.columns
+    three = "z" in cols
+    keys = ("cell", "x", "y", "z") if three else ("cell", "x", "y")
+    where = {tuple(float(last[k][i]) for k in keys): i for i in range(len(last["cell"]))}
+    if three:
+        xyz = np.c_[cols["x"], cols["y"], cols["z"]]
+        axis = int(np.argmax(np.ptp(xyz, axis=0))) if len(xyz) else 0
+        order = np.lexsort((xyz[:, (axis + 2) % 3], xyz[:, (axis + 1) % 3], xyz[:, axis]))
+        rows = [int(order[round(f * (len(order) - 1))]) for f in HISTORY_POINTS] if len(order) else []
+    else:
+        first = np.flatnonzero(cols["curve"] == cols["curve"].min())
+        s = np.asarray(cols["s"])[first]
+        length = s.max() if len(s) else 0.0
+        rows = [int(first[np.argmin(np.abs(s - f * length))]) for f in HISTORY_POINTS]
+    picks: list[tuple[str, int]] = []
+    for row in rows:
+        i = where.get(tuple(float(cols[k][row]) for k in keys))
+        if i is None or i in [p[1] for p in picks]:
+            continue
+        at = ", ".join(f"{cols[c][row]:.3g}" for c in keys[1:])
+        picks.append((f"({at})" if three else f"s = {cols['s'][row]:.3g} m ({at})", i))
+    return picks
 
 
 def write_outputs(folder: OutputFolder, model: Model, stepper: Stepper, checkpoints: Checkpoints,

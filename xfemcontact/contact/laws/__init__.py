@@ -7,10 +7,10 @@ Adding a law: a module here defining ``LAW`` (an
 :class:`~xfemcontact.contact.laws.base.InterfaceLaw`), listed in ``_MODULES``,
 with its tests; nothing else compares law names.
 """
-from xfemcontact.contact.laws import bonded, contact, free
+from xfemcontact.contact.laws import bonded, contact, free, glissiere
 from xfemcontact.contact.laws.base import InterfaceLaw
 
-_MODULES = (contact, bonded, free)
+_MODULES = (contact, bonded, free, glissiere)
 _LAWS = {m.LAW.name: m.LAW for m in _MODULES}
 #: the law names, the first being the default
 NAMES: tuple[str, ...] = tuple(_LAWS)

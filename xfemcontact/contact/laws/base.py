@@ -10,6 +10,8 @@ A law is an object with a few facts the rest of the package asks about
 * ``separate_bodies``: the two sides are separate bodies for the rigid-body
   check of :mod:`xfemcontact.preflight` (nothing crosses the interface);
 * ``case_tables``: the case tables it reads besides ``[interface]``;
+* ``frictional``: it takes Coulomb friction (``[contact] frottement = "COULOMB"``;
+  a frictionless law refuses it when the case is read);
 * ``problem(setup)``: the interface problem the solver and the
   post-processing use.
 """
@@ -35,6 +37,7 @@ class InterfaceLaw:
     zero_jump: bool = False
     separate_bodies: bool = False
     case_tables: tuple[str, ...] = ()
+    frictional: bool = False
 
     def multiplier_space(self, mesh: LocalMesh, geo: Geometry, points: SegmentPoints | FacetPoints,
                          case: Any) -> MultiplierSpace | None:

@@ -32,6 +32,7 @@ class Contact(InterfaceLaw):
     doc = "unilateral contact, with Coulomb friction if [contact] frottement = COULOMB"
     multipliers = True
     case_tables = ("contact",)
+    frictional = True
 
     def multiplier_space(self, mesh: LocalMesh, geo: Geometry, points: SegmentPoints | FacetPoints,
                          case: Any) -> MultiplierSpace:

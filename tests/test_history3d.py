@@ -1,0 +1,145 @@
+"""Load histories with contact in 3-D: the 2-D machinery (tests/test_history.py) with two
+tangential components.
+
+* the validation cases (cases/validation/history_shear3d_hexa20.toml: a Coulomb
+  hysteresis whose slip turns from x to y and back along the diagonal;
+  history_reclose3d_tetra10.toml: an inclined interface pressed with friction sticking,
+  pulled open and reclosed) against their closed forms at every instant, LAGS_F2 too;
+* the outputs over time in 3-D: interface.csv with ``inst``, the 3-D columns and
+  ``slip_path`` (the length of the vector slip increments), results.json ``steps``,
+  plot_history.png;
+* step cutting, a stopped run resumed with other options, a run killed by SIGKILL
+  resumed with ``--restart``;
+* 2, 3 and 4 processes reproduce one at every instant to 1e-10.
+"""
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import CASES, results, run_cli
+from test_history import _kill_after, run_case
+from xfemcontact.case import load_case
+from xfemcontact.output import interface_csv
+
+VALIDATION = CASES / "validation"
+FIELDS = ("LAGS_C", "LAGS_F1", "LAGS_F2", "gap", "slip")
+
+
+def step_errors(res, case_path, fields=FIELDS):
+    """{inst: {field: largest |computed - reference(t)|}} over the interface points of every
+    step (the [reference] formulas of x, y, z at each instant)."""
+    case = load_case(case_path)
+    out = {}
+    for step in res["steps"]:
+        itf = step["interface"]
+        x, y, z = (np.array(itf[c]) for c in ("x", "y", "z"))
+        ref = case.reference_at(step["inst"])
+        out[step["inst"]] = {f: float(np.abs(np.array(itf[f]) - np.broadcast_to(ref[f](x=x, y=y, z=z), x.shape))
+                                      .max()) for f in fields if f in ref}
+    return out
+
+
+def no_plots(case, tmp_path):
+    """A copy of ``case`` without plots (the figures take seconds)."""
+    path = tmp_path / case.name
+    path.write_text(case.read_text().replace("plots = true", "plots = false"))
+    return path
+
+
+def test_shear_hysteresis_every_instant(tmp_path):
+    """The 3-D Coulomb hysteresis: every [[test]] OK; at every instant LAGS_C, LAGS_F1,
+    LAGS_F2, gap and slip in closed form; the slip turns from x to y (the tangential
+    traction's components in the tangent basis follow), the interface keeps its slip when
+    unloaded, slides back to zero along the diagonal; slip_path is the length of the path
+    of the slip vector, 4e-4 + 2 sqrt(2) 1e-4 m; interface.csv has one block of rows per
+    instant with the 3-D columns; plot_history.png is drawn."""
+    case = VALIDATION / "history_shear3d_hexa20.toml"
+    out = tmp_path / "out"
+    p, res = run_case(case, out)
+    assert res["tests"] and all(t["ok"] for t in res["tests"])
+    assert [s["inst"] for s in res["steps"]] == [0.5 * k for k in range(1, 17)]
+    for t, err in step_errors(res, case).items():
+        assert err["LAGS_C"] < 1e-9 and err["gap"] < 1e-15 and err["slip"] < 1e-13, (t, err)
+        assert err["LAGS_F1"] < 1e-9 and err["LAGS_F2"] < 1e-9, (t, err)
+    by_inst = {s["inst"]: s["interface"] for s in res["steps"]}
+    assert np.allclose(by_inst[4.0]["slip1"], 2e-4, rtol=0, atol=1e-15)            # kept on unloading
+    assert np.allclose(by_inst[6.0]["slip2"], 2e-4, rtol=0, atol=1e-15)
+    assert np.allclose(by_inst[8.0]["slip_path"], 4e-4 + 2 * np.sqrt(2) * 1e-4, rtol=1e-11, atol=0)
+    table = interface_csv.read(out / "interface.csv")
+    rows = len(res["interface"]["x"])
+    assert len(table["inst"]) == 16 * rows
+    assert set(interface_csv.COLUMNS_3D) | {"inst", "slip_path", "LAGS_F2_err"} <= set(table)
+    assert np.abs(table["LAGS_F2_err"]).max() < 1e-9
+    assert (out / "plot_history.png").is_file()
+    assert "t = 7.5 (step 15/16)" in p.stdout
+
+
+def test_reclose_every_instant(tmp_path):
+    """An inclined TETRA10 interface pressed (friction sticking, both tangential
+    components of the traction exact), pulled open (gap and slip of the rigid lift,
+    tractions zero), pressed again (the reclosing step starts from no slip and sticks)."""
+    case = VALIDATION / "history_reclose3d_tetra10.toml"
+    _, res = run_case(case, tmp_path / "out", "-q")
+    assert res["tests"] and all(t["ok"] for t in res["tests"])
+    for t, err in step_errors(res, case).items():
+        assert err["LAGS_C"] < 1e-9 and err["LAGS_F1"] < 1e-9 and err["LAGS_F2"] < 1e-9, (t, err)
+        assert err["gap"] < 1e-15 and err["slip"] < 1e-15, (t, err)
+    opened = {s["inst"]: s["interface"]["contact"] for s in res["steps"]}
+    assert not any(opened[2.0]) and all(opened[3.0])
+
+
+@pytest.mark.slow
+def test_step_cutting_stop_and_resume(tmp_path):
+    """With ITER_FROT_MAXI = 3 (-friction_snes_max_it) the step 7 -> 7.5 of the
+    hysteresis (the slip starting along the diagonal takes 6 threshold iterations) fails,
+    is cut three times and the run stops (exit code 3) with the 14 completed steps and
+    their checkpoints; resumed with --restart and the case's limit it ends with the
+    closed form."""
+    case = no_plots(VALIDATION / "history_shear3d_hexa20.toml", tmp_path)
+    out = tmp_path / "out"
+    p = run_cli(["run", case, "-o", out, "-friction_snes_max_it", "3"])
+    assert p.returncode == 3, p.stdout + p.stderr
+    assert "cut into 4 steps (level 1 of 3)" in p.stdout
+    assert "after 3 cut(s) (subd_niveau = 3)" in p.stderr
+    res = results(out)
+    assert res["converged"] is False and len(res["steps"]) == 14 and res["steps"][-1]["inst"] == 7.0
+    assert (tmp_path / "out.checkpoints" / "manifest.json").is_file()
+    p, res = run_case(case, out, "--restart", "-q")
+    assert "resumed after step 14 (t = 7)" in p.stdout
+    assert res["converged"] and [s["inst"] for s in res["steps"]][-2:] == [7.5, 8.0]
+    for t, err in step_errors(res, case).items():
+        assert err["LAGS_F1"] < 1e-9 and err["LAGS_F2"] < 1e-9 and err["slip"] < 1e-13, (t, err)
+    assert not (tmp_path / "out.checkpoints").exists()
+
+
+def test_restart_after_sigkill(tmp_path):
+    """A 3-D run killed (SIGKILL) after 5 of its 12 steps resumes with --restart and writes
+    the interface.csv of the uninterrupted run byte for byte (one process)."""
+    case = VALIDATION / "history_reclose3d_tetra10.toml"
+    _, full = run_case(case, tmp_path / "full", "-q")
+    cmd = [sys.executable, "-m", "xfemcontact", "run", case, "-o", tmp_path / "cut", "-q"]
+    done = _kill_after(cmd, tmp_path / "cut.checkpoints" / "manifest.json", 5)
+    assert 5 <= done < 12 and not (tmp_path / "cut").exists()
+    p, resumed = run_case(case, tmp_path / "cut", "--restart", "-q")
+    assert f"resumed after step {done}" in p.stdout
+    assert (tmp_path / "full" / "interface.csv").read_text() == (tmp_path / "cut" / "interface.csv").read_text()
+    assert [s["inst"] for s in resumed["steps"]] == [s["inst"] for s in full["steps"]]
+
+
+@pytest.mark.mpi
+@pytest.mark.slow
+def test_processes_every_instant(tmp_path):
+    """2, 3 and 4 processes reproduce one at every instant of the reclosing case to 1e-10
+    (LAGS_C relative to its largest value; the rest absolute: LAGS_F1, LAGS_F2 and m)."""
+    case = VALIDATION / "history_reclose3d_tetra10.toml"
+    _, one = run_case(case, tmp_path / "1", "-q")
+    scale = max(np.abs(s["interface"]["LAGS_C"]).max() for s in one["steps"])
+    for n in (2, 3, 4):
+        _, many = run_case(case, tmp_path / str(n), "-q", np_=n)
+        assert all(t["ok"] for t in many["tests"])
+        assert [s["inst"] for s in many["steps"]] == [s["inst"] for s in one["steps"]]
+        for x, y in zip(one["steps"], many["steps"]):
+            for f in FIELDS + ("slip_path",):
+                d = np.abs(np.array(x["interface"][f]) - np.array(y["interface"][f])).max()
+                assert d <= 1e-10 * (scale if f == "LAGS_C" else 1.0), (n, x["inst"], f, d)
