@@ -91,7 +91,9 @@ def interface_table(model: Model) -> dict[str, list[Any]] | None:
 
 def write_fields(folder: OutputFolder, model: Model) -> tuple[PostMesh | None, list[str]]:
     """The post-processing mesh and its fields (see :mod:`xfemcontact.post.postmesh`) as
-    fields.xdmf + fields.h5 (and fields.vtu, fields.med if asked).  Collective.
+    fields.xdmf + fields.h5 (and fields.vtu, fields.med if asked); in 3-D its interface
+    surface (:mod:`xfemcontact.post.surface`) as interface.xdmf + interface.h5 (and
+    interface.vtu with vtu).  Collective.
 
     Returns the PostMesh and the file names written on rank 0, (None, []) elsewhere.
     """
@@ -102,18 +104,21 @@ def write_fields(folder: OutputFolder, model: Model) -> tuple[PostMesh | None, l
     if post is None:
         return None, []
     formats = model.case.output.formats
+    meshes = [("fields", post)] + ([("interface", post.interface)] if post.interface is not None else [])
     written: list[str] = []
     if "xdmf" in formats:
         from xfemcontact.output import xdmf
 
         with timing.step("output:xdmf"):
-            xdmf.write(folder.file("fields.xdmf"), post)
-        written += ["fields.xdmf", "fields.h5"]
+            for name, mesh in meshes:
+                xdmf.write(folder.file(f"{name}.xdmf"), mesh)
+                written += [f"{name}.xdmf", f"{name}.h5"]
     if "vtu" in formats or "med" in formats:
         import meshio
     if "vtu" in formats:
-        meshio.write(folder.file("fields.vtu"), post.to_meshio(), file_format="vtu")
-        written.append("fields.vtu")
+        for name, mesh in meshes:
+            meshio.write(folder.file(f"{name}.vtu"), mesh.to_meshio(), file_format="vtu")
+            written.append(f"{name}.vtu")
     if "med" in formats:
         meshio.write(folder.file("fields.med"), post.to_meshio(med=True), file_format="med")
         written.append("fields.med")
@@ -161,7 +166,10 @@ def write_outputs(folder: OutputFolder, model: Model, converged: bool, reason: i
     if helper is not None:
         with timing.step("output:plots"):
             jobs = plots.mesh_jobs(title, post, table, case.material.E,
-                                   friction=bool(model.problem is not None and model.problem.friction))
+                                   friction=bool(model.problem is not None and model.problem.friction),
+                                   multipliers=bool(model.law is not None and model.law.multipliers),
+                                   references=case.reference,
+                                   profile=(case.output.profile_point, case.output.profile_normal))
             if not helper.send(jobs, folder.file(".")):
                 here += jobs
             drawn = plots.run(folder, here)

@@ -138,13 +138,19 @@ def interface_rows(model: Model, stepper: Stepper) -> tuple[InterfaceTable | Non
         return table, None
     cols = table.columns
     last = steps[-1]["interface"]
-    where = {(int(c), float(x), float(y)): i for i, (c, x, y) in
-             enumerate(zip(last["cell"], last["x"], last["y"]))}
-    rows = np.array([where.get((int(c), float(x), float(y)), -1)
-                     for c, x, y in zip(cols["cell"], cols["x"], cols["y"])])
+    three = model.mesh.dim == 3
+    if three:                     # 3-D: the table's rows are the steps' (ordered by cell and point)
+        rows = np.arange(len(last["cell"])) if len(last["cell"]) == len(cols["cell"]) else np.array([-1])
+    else:
+        where = {(int(c), float(x), float(y)): i for i, (c, x, y) in
+                 enumerate(zip(last["cell"], last["x"], last["y"]))}
+        rows = np.array([where.get((int(c), float(x), float(y)), -1)
+                         for c, x, y in zip(cols["cell"], cols["x"], cols["y"])])
     if (rows < 0).any():          # cannot happen: same points at every step
         return table, None
-    names = ["inst"] + list(interface_csv.COLUMNS) + ["slip_path"]
+    columns = interface_csv.COLUMNS_3D if three else interface_csv.COLUMNS
+    fixed = ("x", "y", "z", "cell", "w") if three else ("curve", "s", "x", "y", "cell")
+    names = ["inst"] + list(columns) + ["slip_path"]
     out: dict[str, list[NDArray[Any]]] = {name: [] for name in names}
     ref_names = [f for f in interface_csv.REFERENCE_FIELDS if f in model.case.reference]
     for f in ref_names:
@@ -153,8 +159,8 @@ def interface_rows(model: Model, stepper: Stepper) -> tuple[InterfaceTable | Non
         values = step["interface"]
         n = len(rows)
         out["inst"].append(np.full(n, step["inst"]))
-        for name in interface_csv.COLUMNS:
-            if name in ("curve", "s", "x", "y", "cell"):
+        for name in columns:
+            if name in fixed:
                 out[name].append(np.asarray(cols[name]))
             else:
                 out[name].append(np.asarray(values[name], dtype=float)[rows])
@@ -162,8 +168,8 @@ def interface_rows(model: Model, stepper: Stepper) -> tuple[InterfaceTable | Non
         for f in ref_names:
             formula = model.case.reference[f].at(step["inst"])
             try:
-                ref = np.broadcast_to(np.asarray(formula(x=cols["x"], y=cols["y"]), float),
-                                      (n,)).copy()
+                xyz = {c: cols[c] for c in ("x", "y", "z") if c in cols}
+                ref = np.broadcast_to(np.asarray(formula(**xyz), float), (n,)).copy()
             except Exception:                   # invalid somewhere on the interface
                 ref = np.full(n, np.nan)
             out[f + "_ref"].append(ref)
@@ -188,7 +194,7 @@ def history_figure(stepper: Stepper, table: InterfaceTable | None, title: str) -
     t0 = stepper.instants.values[0]
     ts = np.r_[t0, [s["inst"] for s in steps]]
     panels: list[Panel] = []
-    if table is not None and steps and "interface" in steps[-1]:
+    if table is not None and steps and "interface" in steps[-1] and "curve" in table.columns:   # 2-D
         cols = table.columns
         first = cols["curve"] == cols["curve"].min()
         s = np.asarray(cols["s"])[first]

@@ -1,0 +1,113 @@
+"""Pictures of 3-D surfaces with matplotlib's 2-D artists: a view, the painter's order, an image.
+
+A view (:func:`view`) is a camera direction (elevation and azimuth in degrees, as
+matplotlib's 3-D axes name them) and the screen axes it gives.  Surfaces are lists of
+polygons (triangles or quadrangles) carrying one value each; projected on the screen
+and drawn far to near (the painter's algorithm: each polygon covers what it hides), as
+polygons with their edges when there are few of them (:data:`VECTOR_POLYGONS`), else
+into an image of :data:`PIXELS` (every pixel the value of the nearest polygon over its
+centre, :func:`~xfemcontact.post.drawing.rasterise`): no more than the picture can show,
+at a cost that grows with the pixels, not with the mesh.  NumPy only: the figures are
+drawn from what these functions return (:mod:`xfemcontact.post.plots3d`).
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from xfemcontact.post.drawing import rasterise
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    FloatArray = NDArray[np.float64]
+    IntArray = NDArray[np.int64]
+
+#: up to this many polygons a view is drawn as polygons with edges; above, as an image
+VECTOR_POLYGONS = 4000
+#: long side of the image of a view, pixels
+PIXELS = 500
+
+
+def view(elev: float, azim: float) -> FloatArray:
+    """The view matrix ``(3, 3)``: rows the screen's right and up directions and the
+    direction towards the camera (unit vectors; elevation and azimuth in degrees)."""
+    e, a = np.radians(elev), np.radians(azim)
+    towards = np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
+    right = np.array([-np.sin(a), np.cos(a), 0.0])
+    return np.stack([right, np.cross(towards, right), towards])
+
+
+def project(points: FloatArray, R: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Screen coordinates ``(n, 2)`` and depths ``(n,)`` (larger: nearer the camera) of
+    ``points (n, 3)`` in the view ``R``."""
+    q = points @ R.T
+    return q[:, :2], q[:, 2]
+
+
+def picture(points: FloatArray, polygons: IntArray, values: FloatArray, R: FloatArray,
+            edges: bool = True) -> dict[str, Any]:
+    """What a view shows of the polygons ``polygons (m, c)`` (indices of ``points (n, 3)``,
+    c = 3 or 4) with one value each ``values (m,)``, in the view ``R``.
+
+    Returns ``{"polygons": (m, c, 2) screen coordinates far to near, "values", "edges"}``
+    for few polygons, else ``{"image": (H, W) float32, NaN where nothing is drawn,
+    "extent"}``; both with ``"xlim"``, ``"ylim"``."""
+    xy, depth = project(points, R)
+    order = np.argsort(depth[polygons].mean(axis=1), kind="stable")          # far first
+    poly, vals = polygons[order], values[order]
+    lo, hi = (xy.min(axis=0), xy.max(axis=0)) if len(xy) else (np.zeros(2), np.ones(2))
+    pad = 0.03 * max(float((hi - lo).max()), 1e-300)
+    out: dict[str, Any] = {"xlim": (lo[0] - pad, hi[0] + pad), "ylim": (lo[1] - pad, hi[1] + pad)}
+    if len(poly) <= VECTOR_POLYGONS:
+        out.update({"polygons": xy[poly], "values": vals, "edges": edges})
+        return out
+    span = np.maximum(hi - lo, 1e-300)
+    px = float(span.max()) / PIXELS
+    W, H = (np.ceil(span / px).astype(int) + 1).tolist()
+    tri = poly[:, [0, 1, 2]]
+    label = np.arange(len(poly))
+    if poly.shape[1] == 4:                         # quadrangles: two triangles each
+        tri = np.concatenate([tri, poly[:, [0, 2, 3]]])
+        label = np.r_[label, label]
+        keep = np.argsort(np.r_[np.arange(len(poly)), np.arange(len(poly))], kind="stable")
+        tri, label = tri[keep], label[keep]        # still far to near
+    lab = rasterise((xy[tri] - lo) / px, label, W, H)
+    img = np.full((H, W), np.nan, np.float32)
+    img[lab >= 0] = vals[lab[lab >= 0]]
+    out.update({"image": img, "extent": (lo[0] - 0.5 * px, lo[0] + (W - 0.5) * px,
+                                         lo[1] - 0.5 * px, lo[1] + (H - 0.5) * px)})
+    return out
+
+
+def draw(ax: Any, pic: dict[str, Any], cmap: Any, norm: Any) -> None:
+    """Draw a :func:`picture` ``pic`` on the matplotlib axes ``ax`` with the colour map and
+    normalisation given (values outside the norm take the map's ends)."""
+    from matplotlib.collections import PolyCollection
+
+    if "image" in pic:
+        img = pic["image"]
+        rgba = cmap(norm(np.nan_to_num(img, nan=norm.vmin)))
+        rgba[np.isnan(img), 3] = 0.0
+        ax.imshow(rgba, origin="lower", interpolation="nearest", extent=pic["extent"])
+    else:
+        pc = PolyCollection(list(pic["polygons"]), cmap=cmap, norm=norm,
+                            edgecolors="0.3" if pic["edges"] else "face", linewidths=0.2)
+        pc.set_array(pic["values"])
+        ax.add_collection(pc)
+    ax.set_xlim(*pic["xlim"])
+    ax.set_ylim(*pic["ylim"])
+    ax.set_aspect("equal")
+    ax.set_xticks([])
+    ax.set_yticks([])
+
+
+def triad(ax: Any, R: FloatArray) -> None:
+    """The x, y, z axes of the view ``R`` as three short arrows in the lower left corner."""
+    for i, name in enumerate("xyz"):
+        d = R[:2, i] * 0.07
+        ax.annotate("", xy=(0.08 + d[0], 0.08 + d[1]), xytext=(0.08, 0.08), xycoords="axes fraction",
+                    arrowprops={"arrowstyle": "->", "lw": 1.0, "color": "0.2"})
+        ax.text(0.08 + 1.35 * d[0], 0.08 + 1.35 * d[1], name, transform=ax.transAxes, fontsize=8,
+                ha="center", va="center")
