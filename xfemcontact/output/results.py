@@ -61,7 +61,8 @@ def geometry_summary(model: Model) -> dict[str, Any] | None:
     if model.mesh.dim == 3:             # the interface is made of facets, not segments
         live = sum(int(f.live.sum()) for f in (geo.facets, geo.face_facets) if f is not None)
         area = sum(float(p.w.sum()) for p in geo.interface_points(model.mesh))
-        facets = {"interface_facets": mpi.allreduce(live), "interface_area": mpi.allreduce(area)}
+        facets = {"interface_facets": mpi.allreduce(live), "interface_area": mpi.allreduce(area),
+                  "off_surface_midnodes": mpi.allreduce(geo.off_surface), "folded_cells": mpi.allreduce(geo.folded)}
     return {**facets, "cut_cells": mpi.allreduce(len(geo.cut_cells)),
             "cut_cells_per_process": mpi.allgather(len(geo.cut_cells)),
             "edge_segments": mpi.allreduce(len(geo.edge_segments)),

@@ -175,6 +175,9 @@ def _cut(X: FloatArray, tri: IntArray, normals: FloatArray, p: FloatArray, m: Fl
         wts[rows, filled[rows]] = t[rows]
         filled[rows] += 1
     P = _at(X, ends, wts)
+    length = np.linalg.norm(P[:, 1] - P[:, 0], axis=1)
+    keep = length > 1e-12 * (float(np.ptp(X, axis=0).max()) if len(X) else 1.0)   # not a vertex on the plane
+    ends, wts, cut, P = ends[keep], wts[keep], cut[keep], P[keep]
     n = normals[tri[cut]].mean(axis=1)
     flip = np.einsum("ki,ki->k", P[:, 1] - P[:, 0], np.cross(m, n)) < 0
     ends[flip], wts[flip], P[flip] = ends[flip][:, ::-1], wts[flip][:, ::-1], P[flip][:, ::-1]
