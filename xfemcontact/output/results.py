@@ -70,7 +70,8 @@ def geometry_summary(model: Model) -> dict[str, Any] | None:
             "dropped_heaviside_nodes": mpi.allreduce(geo.dropped),
             "readjusted": {"roundoff": mpi.allreduce(r.roundoff), "fitted_vertices": mpi.allreduce(r.fitted_vertices),
                            "lifted_edges": mpi.allreduce(r.lifted_edges),
-                           "pushed_off_edges": mpi.allreduce(r.pushed_off)}}
+                           "pushed_off_edges": mpi.allreduce(r.pushed_off),
+                           "double_crossed_edges": mpi.allreduce(r.double_crossings)}}
 
 
 def interface_table(model: Model) -> dict[str, list[Any]] | None:
