@@ -316,9 +316,10 @@ def _faces(blocks: Sequence[tuple[str, IntArray]], cells: Sequence[IntArray]) ->
 
 def _unpaired(faces: IntArray) -> IntArray:
     """Rows of ``faces (f, c)`` whose vertex set appears once (the boundary of the cells)."""
-    key = np.sort(faces, axis=1)
-    _, inv, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    return np.nonzero(count[inv.ravel()] == 1)[0]
+    from xfemcontact.mesh.plex3d import row_keys
+
+    key = row_keys(faces)
+    return np.nonzero(np.bincount(key)[key] == 1)[0]
 
 
 def cutaway_data(points: FloatArray, blocks: Sequence[tuple[str, IntArray]], point_data: Mapping[str, NDArray[Any]],
