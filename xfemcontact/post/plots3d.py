@@ -79,11 +79,11 @@ def interface_data(surface: PostMesh, multipliers: bool) -> dict[str, Any]:
     """What :func:`draw_interface` draws: per field, its range and a picture per view."""
     tri = _triangles(surface)
     out: dict[str, Any] = {"views": VIEWS, "fields": [], "facets": len(surface.blocks[0][1])}
+    geometry = [view3d.layout(surface.points, tri, view3d.view(*ev), edges=False) for ev in VIEWS]
     for name, v in interface_fields(surface, multipliers):
         values = v[tri].mean(axis=1)
-        pics = [view3d.picture(surface.points, tri, values, view3d.view(*ev), edges=False) for ev in VIEWS]
         out["fields"].append({"name": name, "range": (float(v.min()), float(v.max())) if len(v) else (0.0, 0.0),
-                              "pictures": pics})
+                              "pictures": [view3d.paint(g, values) for g in geometry]})
     return out
 
 

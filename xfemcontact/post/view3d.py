@@ -56,14 +56,22 @@ def picture(points: FloatArray, polygons: IntArray, values: FloatArray, R: Float
     Returns ``{"polygons": (m, c, 2) screen coordinates far to near, "values", "edges"}``
     for few polygons, else ``{"image": (H, W) float32, NaN where nothing is drawn,
     "extent"}``; both with ``"xlim"``, ``"ylim"``."""
+    return paint(layout(points, polygons, R, edges), values)
+
+
+def layout(points: FloatArray, polygons: IntArray, R: FloatArray, edges: bool = True) -> dict[str, Any]:
+    """The geometry of a :func:`picture`, to :func:`paint` with one field or several: the
+    polygons far to near (``order``) and, above :data:`VECTOR_POLYGONS`, the image of which
+    polygon each pixel shows (``label``, -1 for none)."""
     xy, depth = project(points, R)
     order = np.argsort(depth[polygons].mean(axis=1), kind="stable")          # far first
-    poly, vals = polygons[order], values[order]
+    poly = polygons[order]
     lo, hi = (xy.min(axis=0), xy.max(axis=0)) if len(xy) else (np.zeros(2), np.ones(2))
     pad = 0.03 * max(float((hi - lo).max()), 1e-300)
-    out: dict[str, Any] = {"xlim": (lo[0] - pad, hi[0] + pad), "ylim": (lo[1] - pad, hi[1] + pad)}
+    out: dict[str, Any] = {"xlim": (lo[0] - pad, hi[0] + pad), "ylim": (lo[1] - pad, hi[1] + pad),
+                           "order": order}
     if len(poly) <= VECTOR_POLYGONS:
-        out.update({"polygons": xy[poly], "values": vals, "edges": edges})
+        out.update({"polygons": xy[poly], "edges": edges})
         return out
     span = np.maximum(hi - lo, 1e-300)
     px = float(span.max()) / PIXELS
@@ -75,11 +83,22 @@ def picture(points: FloatArray, polygons: IntArray, values: FloatArray, R: Float
         label = np.r_[label, label]
         keep = np.argsort(np.r_[np.arange(len(poly)), np.arange(len(poly))], kind="stable")
         tri, label = tri[keep], label[keep]        # still far to near
-    lab = rasterise(_widened((xy[tri] - lo) / px), label, W, H)
-    img = np.full((H, W), np.nan, np.float32)
+    out.update({"label": rasterise(_widened((xy[tri] - lo) / px), label, W, H),
+                "extent": (lo[0] - 0.5 * px, lo[0] + (W - 0.5) * px, lo[1] - 0.5 * px, lo[1] + (H - 0.5) * px)})
+    return out
+
+
+def paint(geometry: dict[str, Any], values: FloatArray) -> dict[str, Any]:
+    """The :func:`picture` of the :func:`layout` ``geometry`` with the polygons' ``values (m,)``."""
+    vals = values[geometry["order"]]
+    out = {k: v for k, v in geometry.items() if k not in ("order", "label")}
+    if "label" not in geometry:
+        out["values"] = vals
+        return out
+    lab = geometry["label"]
+    img = np.full(lab.shape, np.nan, np.float32)
     img[lab >= 0] = vals[lab[lab >= 0]]
-    out.update({"image": img, "extent": (lo[0] - 0.5 * px, lo[0] + (W - 0.5) * px,
-                                         lo[1] - 0.5 * px, lo[1] + (H - 0.5) * px)})
+    out["image"] = img
     return out
 
 
