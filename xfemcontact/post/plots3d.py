@@ -5,9 +5,9 @@
   the slip);
 * ``plot_profiles.png``: LAGS_C, LAGS_F1, gap and slip along the cuts of the interface by
   one or two planes (:func:`profile_planes`), with the ``[reference]`` formulas;
-* ``plot_deformed.png``: the deformed body cut in half through its centre by the plane
-  y = y_mid (the part y < y_mid removed) seen from that side, coloured by SIZZ per cell
-  and sub-cell, the interface's trace in the cut drawn.
+* ``plot_deformed.png``: the deformed body cut in half through its centre along the input
+  cells' faces nearest the plane y = y_mid (the cells below removed) seen from that side,
+  coloured by SIZZ per cell and sub-cell, the interface's trace in the cut drawn.
 
 As in 2-D, each figure is drawn by a ``draw_*`` function from a dict of plain arrays that a
 ``*_data`` function reduced the meshes to (:mod:`xfemcontact.post.view3d`: at most the
@@ -268,9 +268,12 @@ def _plane_name(m: FloatArray, p: FloatArray, e: FloatArray) -> str:
             f"({m[0]:.3g}, {m[1]:.3g}, {m[2]:.3g})")
 
 
-def profiles_figure(profiles: Sequence[Mapping[str, Any]], fields: Sequence[str], title: str) -> Figure:
+def profiles_figure(profiles: Sequence[Mapping[str, Any]], fields: Sequence[str], title: str,
+                    jump_scale: float = 0.0) -> Figure:
     """The profiles of :func:`profile_data`: a column per plane, a row per field; the
-    computed values as a line with markers, the reference (if any) as a grey line."""
+    computed values as a line with markers, the reference (if any) as a grey line.  Each
+    axis spans at least 1e-3 of the field's largest magnitude (of ``jump_scale``, m, a
+    typical displacement, for the gap and the slip), so that round-off shows as flat."""
     fig = figure(6.0 * len(profiles) + 1.0, 2.3 * len(fields) + 1.2, left=0.1 if len(profiles) > 1 else 0.14,
                   right=0.98, bottom=0.07, top=0.88, wspace=0.25, hspace=0.3)
     axes = fig.subplots(len(fields), len(profiles), squeeze=False, sharex="col")
@@ -287,6 +290,13 @@ def profiles_figure(profiles: Sequence[Mapping[str, Any]], fields: Sequence[str]
                         label=f"{f} computed{tag}" if k == 0 else None)
             ax.set_ylabel(f"{f} ({UNITS[f]})")
             ax.grid(alpha=0.3)
+            seen = [cd[k] for cd in prof["curves"] for k in (f, f + "_ref") if k in cd and len(cd[k])]
+            if seen:
+                v = np.concatenate(seen)
+                scale = jump_scale if f in ("gap", "slip") else float(np.abs(v).max())
+                lo, hi = colour_limits(v, scale)
+                pad = 0.05 * (hi - lo)
+                ax.set_ylim(lo - pad, hi + pad)
             ax.ticklabel_format(axis="y", style="sci", scilimits=(-3, 4), useOffset=False)
             if prof["curves"]:
                 ax.legend(fontsize=7, loc="best")
@@ -325,8 +335,8 @@ def _unpaired(faces: IntArray) -> IntArray:
 def cutaway_data(points: FloatArray, blocks: Sequence[tuple[str, IntArray]], point_data: Mapping[str, NDArray[Any]],
                  cell_data: Mapping[str, Sequence[NDArray[Any]]], field: str = "SIZZ",
                  stress_scale: float = 0.0) -> dict[str, Any]:
-    """What :func:`draw_cutaway` draws: the cells of the post mesh whose centre has y >=
-    y_mid (the middle of the body's extent in y), displaced (the largest displacement
+    """What :func:`draw_cutaway` draws: the cells of the post mesh whose input cell lies at
+    y_mid (the middle of the body's extent in y) or above (:func:`_kept_half`), displaced (the largest displacement
     :data:`DEFORMATION` of the body's size), their boundary faces seen from :data:`CUT_VIEW`
     and coloured by the cell field ``field``, and the interface's trace in the cut (the
     edges of the cut's faces between interface points, NFISSU != 0)."""
@@ -336,7 +346,9 @@ def cutaway_data(points: FloatArray, blocks: Sequence[tuple[str, IntArray]], poi
     scale = DEFORMATION * size / umax if umax > 0 else 0.0
     xd = points + scale * u
     y_mid = 0.5 * (points[:, 1].min() + points[:, 1].max()) if len(points) else 0.0
-    keep = [np.nonzero(points[conn[:, :CORNERS[t]], 1].mean(axis=1) >= y_mid)[0] for t, conn in blocks]
+    keep = _kept_half(points, blocks, cell_data.get("cell"), y_mid)
+    y_cut = min((float(points[conn[rows, :CORNERS[t]], 1].min()) for (t, conn), rows in zip(blocks, keep)
+                 if len(rows)), default=y_mid)
     values = np.concatenate(list(cell_data[field]))
     polys, vals, trace = [], [], []
     nf = point_data.get("NFISSU")
@@ -355,9 +367,27 @@ def cutaway_data(points: FloatArray, blocks: Sequence[tuple[str, IntArray]], poi
     merged = view3d.picture(xd, faces, fvals, R, edges=len(fvals) < 1500)
     lines = np.concatenate(trace) if trace else np.zeros((0, 2, 3))
     return {"picture": merged, "trace": view3d.project(lines.reshape(-1, 3), R)[0].reshape(-1, 2, 2),
-            "field": field, "scale": scale, "umax": umax, "y_mid": y_mid,
+            "field": field, "scale": scale, "umax": umax, "y_cut": y_cut,
             "clim": colour_limits(values, stress_scale) if len(values) else (0.0, 1.0),
             "range": (float(values.min()), float(values.max())) if len(values) else (0.0, 0.0)}
+
+
+def _kept_half(points: FloatArray, blocks: Sequence[tuple[str, IntArray]], parent: Sequence[IntArray] | None,
+               y_mid: float) -> list[IntArray]:
+    """Per block, the cells kept in the cut-away view: those whose input cell (``parent``,
+    the cell field ``cell``: the sub-cells of a cut cell go together, so the cut follows the
+    input cells' faces) has the middle of its extent in y at y_mid or above."""
+    lo_y = [points[conn[:, :CORNERS[t]], 1].min(axis=1) for t, conn in blocks]
+    hi_y = [points[conn[:, :CORNERS[t]], 1].max(axis=1) for t, conn in blocks]
+    if parent is None:
+        return [np.nonzero(0.5 * (a + b) >= y_mid)[0] for a, b in zip(lo_y, hi_y)]
+    ids = np.concatenate(list(parent)) if len(parent) else np.zeros(0, np.int64)
+    n = int(ids.max()) + 1 if len(ids) else 0
+    lo, hi = np.full(n, np.inf), np.full(n, -np.inf)
+    np.minimum.at(lo, ids, np.concatenate(lo_y))
+    np.maximum.at(hi, ids, np.concatenate(hi_y))
+    upper = 0.5 * (lo + hi) >= y_mid
+    return [np.nonzero(upper[np.asarray(c)])[0] for c in parent]
 
 
 def _match(faces: IntArray, table: IntArray, rows: IntArray) -> IntArray:
@@ -403,7 +433,7 @@ def draw_cutaway(d: dict[str, Any], title: str) -> Figure:
     lo, hi = d["range"]
     cb.set_label(f"{d['field']} ({UNITS.get(d['field'], '')}), mean per cell and sub-cell\nmin {lo:.7g}, max {hi:.7g}")
     how = f"displacements x {d['scale']:.3g}" if d["scale"] > 0 else "no displacement"
-    fig.suptitle(f"{title}\ndeformed body cut at y = {d['y_mid']:.4g} (the cells of centre y < {d['y_mid']:.4g} "
+    fig.suptitle(f"{title}\ndeformed body cut along the cells' faces at y = {d['y_cut']:.4g} (the part below "
                  f"removed),\n{how} (max |u| = {d['umax']:.3g} m), coloured by {d['field']}")
     return fig
 
@@ -420,8 +450,9 @@ def jobs(title: str, post: PostMesh, multipliers: bool, stress_scale: float = 0.
         out.append(("plot_interface.png", "plots3d.draw_interface", (interface_data(surface, multipliers), title)))
         fields = ("LAGS_C", "LAGS_F1", "gap", "slip") if multipliers else ("gap", "slip")
         planes = profile_planes(surface, profile_point, profile_normal)
+        umax = float(np.linalg.norm(post.displacement(), axis=1).max()) if len(post.points) else 0.0
         out.append(("plot_profiles.png", "plots3d.profiles_figure",
-                    (profile_data(surface, planes, fields, references), fields, title)))
+                    (profile_data(surface, planes, fields, references), fields, title, umax)))
     out.append(("plot_deformed.png", "plots3d.draw_cutaway",
                 (cutaway_data(post.points, post.blocks, post.point_data, post.cell_data,
                               stress_scale=stress_scale), title)))
