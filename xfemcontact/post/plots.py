@@ -506,6 +506,8 @@ def mesh_jobs(title: str, post: PostMesh | None = None, table: InterfaceTable | 
     return jobs
 
 
+#: the plots of a 2-D run with an interface, and the order of every plot in report.md
+PLOTS_2D = ("plot_multipliers.png", "plot_status.png", "plot_deformed.png", "plot_convergence.png")
 ORDER = ("plot_multipliers.png", "plot_status.png", "plot_interface.png", "plot_profiles.png",
          "plot_deformed.png", "plot_convergence.png")
 

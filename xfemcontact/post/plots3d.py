@@ -116,6 +116,8 @@ def draw_interface(d: dict[str, Any], title: str) -> Figure:
         else:
             lo, hi = field["range"]
             cb.set_label(f"{field['name']} ({UNITS[field['name']]}), min {lo:.6g}, max {hi:.6g}")
+            cb.formatter.set_useOffset(False)
+            cb.update_ticks()
     fig.suptitle(f"{title}\ninterface surface ({d['facets']} curved facets), both sides")
     return fig
 
@@ -432,6 +434,8 @@ def draw_cutaway(d: dict[str, Any], title: str) -> Figure:
     cb = fig.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=ax, shrink=0.8)
     lo, hi = d["range"]
     cb.set_label(f"{d['field']} ({UNITS.get(d['field'], '')}), mean per cell and sub-cell\nmin {lo:.7g}, max {hi:.7g}")
+    cb.formatter.set_useOffset(False)
+    cb.update_ticks()
     how = f"displacements x {d['scale']:.3g}" if d["scale"] > 0 else "no displacement"
     fig.suptitle(f"{title}\ndeformed body cut along the cells' faces at y = {d['y_cut']:.4g} (the part below "
                  f"removed),\n{how} (max |u| = {d['umax']:.3g} m), coloured by {d['field']}")
