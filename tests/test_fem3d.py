@@ -618,14 +618,16 @@ def test_cutting_level_set_is_refused_on_one_line(tmp_path):
 
 def test_readme_example_runs(tmp_path):
     """cases/box_hexa20.toml, the README's 3-D example: its test table is OK, and the
-    output folder has fields.xdmf with HEXA20 cells and no 2-D plot."""
+    output folder has fields.xdmf with HEXA20 cells, the 3-D deformed view (the body cut
+    in half) and no interface plot (no interface)."""
     done = run_cli(["run", ROOT / "cases" / "box_hexa20.toml", "-o", tmp_path / "out"])
     assert done.returncode == 0, done.stdout + done.stderr
     r = results(tmp_path / "out")
     assert r["mesh"]["cell_type"] == "HEXA20" and all(t["ok"] for t in r["tests"])
     m = meshio.read(tmp_path / "out" / "fields.xdmf")
     assert m.cells[0].type == "hexahedron20" and "DZ" in m.point_data and "SIZZ" in m.cell_data
-    assert not (tmp_path / "out" / "plot_deformed.png").exists()
+    assert (tmp_path / "out" / "plot_deformed.png").stat().st_size > 10_000
+    assert not (tmp_path / "out" / "plot_interface.png").exists()
 
 
 def test_3d_refusals_before_the_set_up(tmp_path):

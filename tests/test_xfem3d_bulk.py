@@ -279,17 +279,55 @@ def test_gauss_contact_in_3d_is_refused_on_one_line(tmp_path):
     assert len(lines) == 1 and '"GAUSS" is not there in 3-D yet' in lines[0], done.stderr
 
 
-def test_interface_fields_in_3d_are_refused_on_one_line(tmp_path):
-    """A test on gap (an interface field, not there in 3-D yet) is refused before the
-    set-up instead of reporting "no point selected"."""
-    text = (CASES / "validation" / "box_plane_free_hexa20.toml").read_text()
-    text = text.replace("[output]", '[[test]]\nfield = "gap"\ntype = "MAX"\nreference = 0\n'
-                        'tolerance = 1\ncriterion = "ABSOLU"\n\n[output]')
-    done = run_cli(["run", write_case(tmp_path, text), "-o", tmp_path / "out"])
-    assert done.returncode == 2
-    lines = [line for line in done.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1 and "the interface fields (LAGS_C, LAGS_F1, gap, slip) are not there in 3-D yet" \
-        in lines[0], done.stderr
+#: the free blocks' jump ([u] = u(+) - u(-), box_plane_free_hexa20.toml) along n = (1, 0, 0.3) / sqrt(1.09)
+#: and its tangential magnitude, as formulas of x, y, z
+FREE_JUMP = ("(-nu*(sR - sL)*x/E + 1e-5)", "((sR - sL)*y/E)", "(-nu*(sR - sL)*z/E + 2e-5)")
+FREE_GAP = f"({FREE_JUMP[0]} + 0.3*{FREE_JUMP[2]})/sqrt(1.09)"
+FREE_SLIP = f"sqrt({FREE_JUMP[0]}**2 + {FREE_JUMP[1]}**2 + {FREE_JUMP[2]}**2 - ({FREE_GAP})**2)"
+
+
+@pytest.mark.parametrize("law", ("free", "bonded"))
+def test_interface_fields_of_free_and_bonded_in_3d(tmp_path, law):
+    """The laws free and bonded give the interface values of 2-D's results-only problem in
+    3-D: gap and slip (the jump's normal and tangential parts) at the facets' Gauss points
+    in interface.csv, [[test]] on them (here against the free blocks' closed form, zero when
+    bonded), LAGS_C = LAGS_F1 = LAGS_F2 = T = 0, contact 1 when bonded and 0 when free; the
+    interface surface file carries the same fields at the facets' nodes."""
+    import meshio
+
+    text = (CASES / "validation" / "box_plane_free_hexa20.toml").read_text().replace('law = "free"', f'law = "{law}"')
+    gap, slip = (FREE_GAP, FREE_SLIP) if law == "free" else ("0*x", "0*x")
+    text = text.replace("[reference]\n", f'[reference]\ngap = "{gap}"\nslip = "{slip}"\n')
+    tests = "".join(f'[[test]]\nfield = "{f}"\ntype = "MAX_ERROR"\ntolerance = 1e-15\ncriterion = "ABSOLU"\n\n'
+                    for f in ("gap", "slip"))
+    if law == "bonded":                 # another solution: the free blocks' tests do not hold
+        text = text[:text.index("[[test]]")] + "[output]\nplots = false\n"
+    text = text.replace("[output]\nplots = false", tests + '[output]\nplots = false\nformats = ["xdmf"]')
+    out = tmp_path / "out"
+    done = run_cli(["run", write_case(tmp_path, text), "-o", out])
+    assert done.returncode == 0, done.stderr
+    r = results(out)
+    assert [t["name"] for t in r["tests"] if not t["ok"]] == []
+    assert {t["field"] for t in r["tests"]} >= {"gap", "slip"}
+    from xfemcontact.output import interface_csv
+
+    c = interface_csv.read(out / "interface.csv")
+    assert len(c["x"]) > 0 and abs(c["w"].sum() - np.sqrt(1.09)) < 1e-12
+    for f in ("LAGS_C", "LAGS_F1", "LAGS_F2", "T", "sliding"):
+        assert not c[f].any()
+    assert (c["contact"] == (1 if law == "bonded" else 0)).all()
+    jump = np.abs(c["gap"]).max() + c["slip"].max()
+    assert (jump > 1e-6) if law == "free" else (jump < 1e-15)
+    m = meshio.read(out / "interface.xdmf")
+    assert m.cells[0].type == "triangle6"
+    for f in ("LAGS_C", "T", "contact"):
+        assert np.array_equal(m.point_data[f], np.full(len(m.points), 1.0 if f == "contact" and law == "bonded"
+                                                        else 0.0))
+    if law == "free":
+        x, y, z = m.points.T
+        nu, E, sL, sR = 0.25, 1.0e6, 100.0, -60.0
+        exact = (((-nu * (sR - sL) * x / E + 1e-5) + 0.3 * (-nu * (sR - sL) * z / E + 2e-5)) / np.sqrt(1.09))
+        assert np.abs(m.point_data["gap"] - exact).max() < 1e-15
 
 
 def test_free_sides_are_separate_bodies(tmp_path):

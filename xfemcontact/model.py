@@ -160,11 +160,12 @@ class Model:
         multiplier = np.zeros(len(x), bool)
         space: MultiplierSpace | None = None
         points: SegmentPoints | FacetPoints | None = None
-        if geo is not None and mesh.dim == 3 and law is not None and law.multipliers:
+        if geo is not None and mesh.dim == 3 and law is not None:
             points = integration3d.concat(geo.interface_points(mesh, INTERFACE_DEGREE_3D))
-            space = law.multiplier_space(mesh, geo, points, self.case)
-            assert space is not None                # a law with multipliers gives its space
-            multiplier = space.carriers(mesh)
+            if law.multipliers:
+                space = law.multiplier_space(mesh, geo, points, self.case)
+                assert space is not None            # a law with multipliers gives its space
+                multiplier = space.carriers(mesh)
         elif geo is not None and mesh.dim == 2:
             assert law is not None                  # an interface has its law
             segs = geo.segments()
@@ -176,7 +177,7 @@ class Model:
                 multiplier = space.carriers(mesh)
         self.layout = DofLayout(mesh, enriched, multiplier, fixed)
         self.x_bc = system.bc_array(self.layout, fixed, values)
-        self.problem = None               # 3-D free, bonded: no interface terms, no interface values
+        self.problem = None
         if geo is not None and points is not None:
             assert law is not None                              # set above
             self.problem = law.problem(InterfaceSetup(mesh, geo, self.layout, points, space, self.case))

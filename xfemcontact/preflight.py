@@ -291,11 +291,6 @@ def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -
                 raise GeometryError(f"{case.source}: {key}: LN = 0 at every node of cell {flat[0]} near "
                                     f"({ctr[0]:.6g}, {ctr[1]:.6g}, {ctr[2]:.6g}): the interface must be "
                                     f"a surface with LN < 0 on one side and LN > 0 on the other")
-    on_interface = [t for t in case.tests if t.kind == "interface"]
-    if phi is not None and on_interface and itf is not None and not laws.get(itf.law).multipliers:
-        t = on_interface[0]
-        raise CaseError(f"{case.source}: test '{t.name}': the interface fields (LAGS_C, LAGS_F1, gap, "
-                        f"slip) are not there in 3-D yet: test DX, DY, DZ and the stresses")
     law = laws.get(itf.law) if itf is not None and phi is not None else None
     problem = rigid.check(case, raw, phi if law is not None and law.separate_bodies else None)
     if problem:

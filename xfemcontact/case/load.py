@@ -185,6 +185,8 @@ class Output:
 
     formats: tuple[str, ...]
     plots: bool
+    profile_point: tuple[float, ...] | None = None     # 3-D: plot_profiles.png's planes go through it
+    profile_normal: tuple[float, ...] | None = None    # 3-D: the normal of its one plane
 
 
 @dataclass(frozen=True)
@@ -841,8 +843,14 @@ def _check_dimension(case: Case, fail: Callable[[str, str], NoReturn]) -> None:
     if three and case.mesh.refine:
         fail("mesh.refine", "uniform refinement is for 2-D meshes only (for now): generate or "
                             "mesh the finer box instead")
+    normal = case.output.profile_normal
+    if three and normal is not None and not any(normal):
+        fail("output.profile_normal", "must not be the zero vector")
     if three:
         return
+    for name in ("profile_point", "profile_normal"):
+        if getattr(case.output, name) is not None:
+            fail(f"output.{name}", "a 3-D key (the planes of plot_profiles.png, drawn in 3-D)")
     hint = "a 3-D component (set material.model = \"3D\" with a 3-D mesh)"
     for d in case.dirichlet:
         if "DZ" in d.components:

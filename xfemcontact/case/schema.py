@@ -359,6 +359,11 @@ TEST = Table({
 OUTPUT = Table({
     "formats": Key("choices", "result file formats", default=["xdmf"], choices=OUTPUT_FORMATS),
     "plots": flag("draw the interface plots", default=True),
+    "profile_point": Key("point", "3-D: [x, y, z] of a point of the planes cutting the interface for "
+                                  "plot_profiles.png (default: the interface's centre)"),
+    "profile_normal": Key("point", "3-D: [nx, ny, nz], the normal of the one plane cutting the interface "
+                                   "for plot_profiles.png (default: the two coordinate planes through the "
+                                   "point that contain the interface's main normal axis)"),
 }, doc="what is written")
 
 RANGE = Table({

@@ -87,11 +87,13 @@ class InterfaceOperator:
         self.space = space
         #: (k, ng, d, d - 1) unit tangents (2-D: code_aster's tau; 3-D: t1, t2 of
         #: :func:`~xfemcontact.xfem.integration3d.tangent_basis`)
+        self.axis = 0                   # 3-D: the axis of the tangent basis (interface_axis)
+        self._phi = geo.phi
         if isinstance(pts, integration.SegmentPoints):            # 2-D
             self.tangents = pts.tangent[..., None]
         else:
-            axis = integration3d.interface_axis(pts.normal, pts.w, mesh.comm.tompi4py())
-            self.tangents = integration3d.tangent_basis(pts.normal, axis)
+            self.axis = integration3d.interface_axis(pts.normal, pts.w, mesh.comm.tompi4py())
+            self.tangents = integration3d.tangent_basis(pts.normal, self.axis)
         lam_idx = rep_index                                                    # (k, m) global LAGS_C
         hg = np.where(self.enr[:, None, :], layout.h_global[nodes].transpose(0, 2, 1), -1)  # (k, d, nn)
         self.gidx = np.concatenate([hg.reshape(len(nodes), d * el.nn), lam_idx]
@@ -140,6 +142,31 @@ class InterfaceOperator:
     def tangential_operators(self) -> list[FloatArray]:
         """``[a_t (k, ng, d nn)]``, one per tangent (2-D: tau; 3-D: t1, t2): d ([u].t) / d h."""
         return [self._project(self.tangents[..., c]) for c in range(self.d - 1)]
+
+    def jumps(self, ve: FloatArray) -> tuple[FloatArray, list[FloatArray]]:
+        """The gap ``[u].n`` and the tangential jumps ``[u].t_c`` (m), each ``(k, ng)``, at the
+        Gauss points, from the element values ``ve (k, nd)`` (:meth:`element_values`)."""
+        h = ve[:, :self.d * self.nn]
+        return (np.einsum("kqd,kd->kq", self.normal_operator(), h),
+                [np.einsum("kqd,kd->kq", a, h) for a in self.tangential_operators()])
+
+    def frame_at(self, xi: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """3-D: the unit normals ``(k, p, 3)`` (grad LN / |grad LN|, from - to +) and the
+        tangent bases ``(k, p, 3, 2)`` (:func:`~xfemcontact.xfem.integration3d.tangent_basis`
+        with the operator's axis) at parent reference points ``xi (k, p, 3)`` of the interface
+        cells: those of the Gauss points, at any points (the facets' nodes)."""
+        mesh = self.mesh
+        nodes = mesh.cell_nodes[self.pts.cells]
+        n = integration3d.level_set_normals(mesh.element, mesh.x[nodes], self._phi[nodes], xi)
+        return n, integration3d.tangent_basis(n, self.axis)
+
+    def jump_at(self, ve: FloatArray, xi: FloatArray) -> FloatArray:
+        """The jump ``[u] = u(+) - u(-) = 2 sum N_j h_j`` ``(k, p, d)`` (m) at parent reference
+        points ``xi (k, p, d)`` of the interface cells, from the element values ``ve``."""
+        N2 = 2.0 * self.mesh.element.shape(xi) * self.enr[:, None, :]                # (k, p, nn)
+        nn = self.nn
+        return np.stack([np.einsum("kpa,ka->kp", N2, ve[:, i * nn:(i + 1) * nn]) for i in range(self.d)],
+                        axis=-1)
 
     def _project(self, v: FloatArray) -> FloatArray:
         """d ([u].v) / d h for unit vectors ``v (k, ng, d)``: [u] = 2 sum N_j h_j."""

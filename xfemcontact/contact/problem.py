@@ -55,8 +55,11 @@ first iteration).
 is kept -- the status test never releases a dof or point in contact, and tension is
 admissible there.
 
-Results: ``point_values(x)`` (the interface points), ``segment_values(x, xi,
-near)`` (any points of the segments), ``summary()``, ``largest_threshold()``;
+Results: ``point_values(x)`` (the interface points: 2-D the segment ends, 3-D the
+facets' Gauss points), ``segment_values(x, xi, near)`` (2-D: any points of the
+segments), ``surface_values(x, xi)`` (3-D: any points of the interface cells, such
+as the facets' nodes), ``vertex_values(x)`` (the multiplier fields at the vertices of
+the interface cells, None without multipliers), ``summary()``, ``largest_threshold()``;
 read-only facts ``comm``, ``segments``, ``points``, ``space``, ``rep_index``,
 ``phi`` (None without multipliers), ``law`` (the Gauss-point law, None when the
 conditions are written at the dofs), ``mu`` and ``friction_unknown``
@@ -70,7 +73,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from xfemcontact.contact import gauss_point
+from xfemcontact.contact import gauss_point, nodal
 from xfemcontact.contact import space as cspace
 from xfemcontact.contact.operator import InterfaceOperator, PointState
 
@@ -95,6 +98,12 @@ if TYPE_CHECKING:
     BoolArray = NDArray[np.bool_]
     #: remote points of the matrix pattern: (first global dof, dofs per point, owner rank)
     Remote = tuple[IntArray, IntArray, IntArray]
+    #: LAGS_C, T, s, contact, sliding at the vertices of the interface cells, each (k, nv)
+    #: (T (k, nv, d - 1) in 3-D: the components in the tangent basis)
+    VertexValues = tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]
+
+#: the fields of :meth:`InterfaceProblem.surface_values` (3-D), each ``(k, p)``
+SURFACE_FIELDS = ("LAGS_C", "LAGS_F1", "LAGS_F2", "T", "gap", "slip1", "slip2", "slip", "contact", "sliding")
 
 
 @dataclass
@@ -121,8 +130,9 @@ class InterfaceSetup:
 class InterfaceProblem:
     """An interface without terms (laws ``free`` and ``bonded``): the results only.
 
-    Gap and slip at the interface points; LAGS_C = LAGS_F1 = 0; "contact" is 1
-    for a bonded interface, 0 for a free one.
+    Gap and slip at the interface points (3-D: the gap and both tangential jumps);
+    LAGS_C = LAGS_F1 (= LAGS_F2 = T) = 0; "contact" is 1 for a bonded interface, 0 for
+    a free one.
     """
 
     comm: PETSc.Comm
@@ -145,18 +155,25 @@ class InterfaceProblem:
     phi: FloatArray | None = None            # (k, ng, m) multiplier functions at the Gauss points
 
     def __init__(self, setup: InterfaceSetup, bonded: bool = False) -> None:
-        self.comm = setup.mesh.comm
+        mesh = setup.mesh
+        self.comm = mesh.comm
         self.warnings = []
-        segs = setup.geo.segments()
-        k, nv = len(segs), setup.mesh.element.nv
-        self.segments, self.points = segs, setup.points
-        empty = cspace.MultiplierSpace(np.zeros(0, np.int64), np.zeros(0, np.int64),
-                                       cspace.topology(setup.mesh, segs), np.zeros((k, 0), np.int64),
-                                       np.zeros((k, nv, 0)), np.zeros((k, nv, 0)), algo="NON")
+        self.points = setup.points
+        k, nv = len(setup.points.cells), mesh.element.nv
+        if mesh.dim == 2:
+            self.segments = setup.geo.segments()
+            topo = cspace.topology(mesh, self.segments)
+        else:                                    # 3-D: the facets' cells
+            self.segments = None
+            topo = cspace.topology3d(mesh, setup.points.cells, setup.geo.phi)
+        empty = cspace.MultiplierSpace(np.zeros(0, np.int64), np.zeros(0, np.int64), topo,
+                                       np.zeros((k, 0), np.int64), np.zeros((k, nv, 0)), np.zeros((k, nv, 0)),
+                                       algo="NON")
         self.law = gauss_point.PointLaw(1.0, 1.0, 0.0, False)
         self._op = InterfaceOperator(setup.mesh, setup.geo, setup.layout, empty,
                                      np.zeros((k, 0), np.int64), self.law, setup.points)
         shape = setup.points.w.shape
+        self._bonded = bonded
         self._state = PointState(np.full(shape, 1 if bonded else 0, dtype=np.int64), np.zeros(shape))
 
     # -- load steps: nothing carries ---------------------------------------------------
@@ -228,11 +245,69 @@ class InterfaceProblem:
 
     # -- results --------------------------------------------------------------------
     def point_values(self, x: PETSc.Vec, thresholds_from_x: bool = False) -> dict[str, NDArray[Any]]:
-        """Values at the ends of every segment (see :meth:`InterfaceOperator.point_values`).
+        """Values at the ends of every segment (see :meth:`InterfaceOperator.point_values`;
+        3-D: at the facets' Gauss points, :meth:`facet_values`).
 
         ``thresholds_from_x``: take the friction thresholds from the LAGS_C of ``x``
         (a field that is no solve's, such as a projection), not from the state."""
+        if self.segments is None:
+            return self.facet_values(x, thresholds_from_x)
         return self._op.point_values(x, self._end_values(x, thresholds_from_x))
+
+    def facet_values(self, x: PETSc.Vec, thresholds_from_x: bool = False) -> dict[str, NDArray[Any]]:
+        """3-D: the :meth:`surface_values` at the Gauss points of the facets (one entry per
+        point of non-zero weight), flat arrays, with x, y, z (m), w (area weight, m^2),
+        cell (input cell index) and end (the point's index in its element)."""
+        pts = self.points
+        out: dict[str, NDArray[Any]] = dict(self.surface_values(x, pts.xi, thresholds_from_x))
+        k, q = pts.w.shape
+        out.update({"x": pts.x[..., 0], "y": pts.x[..., 1], "z": pts.x[..., 2], "w": pts.w,
+                    "cell": np.repeat(self._op.mesh.cell_ids[pts.cells][:, None], q, axis=1),
+                    "end": np.broadcast_to(np.arange(q), (k, q))})
+        live = pts.w != 0
+        return {key: np.asarray(out[key])[live] for key in ("x", "y", "z", "w") + SURFACE_FIELDS + ("cell", "end")}
+
+    def vertex_values(self, x: PETSc.Vec, thresholds_from_x: bool = False) -> VertexValues | None:
+        """The multiplier fields at the vertices of the interface cells (see
+        :meth:`NodalContactProblem.vertex_values`); None: no multipliers."""
+        return None
+
+    def surface_values(self, x: PETSc.Vec, xi: FloatArray, thresholds_from_x: bool = False
+                       ) -> dict[str, FloatArray]:
+        """3-D: the interface fields at parent reference points ``xi (k, p, 3)`` of the
+        interface cells (the rows of ``points``; any points: the Gauss points, the facets'
+        nodes), each ``(k, p)``: LAGS_C (Pa), LAGS_F1, LAGS_F2 (-: the tangential traction's
+        components in the tangent basis (t1, t2) over mu s, code_aster's semi-multipliers),
+        T (Pa, its magnitude: basis-free), gap, slip1, slip2 (m: [u].n, [u].t1, [u].t2),
+        slip (m, the magnitude of the tangential jump), contact, sliding (1/0: a vertex
+        whose function is not zero there is), and ``normal``, ``t1``, ``t2`` ``(k, p, 3)``
+        (the unit normal from - to + and the tangent basis).  The multipliers interpolate
+        :meth:`vertex_values` with the vertex functions; without multipliers they are 0,
+        contact is 1 for a bonded interface and 0 for a free one, sliding 0."""
+        op = self._op
+        n, basis = op.frame_at(xi)
+        jump = op.jump_at(op.element_values(x), xi)
+        s1, s2 = (np.einsum("kpi,kpi->kp", jump, basis[..., c]) for c in range(2))
+        out = {"gap": np.einsum("kpi,kpi->kp", jump, n), "slip1": s1, "slip2": s2, "slip": np.hypot(s1, s2),
+               "normal": n, "t1": basis[..., 0], "t2": basis[..., 1]}
+        vv = self.vertex_values(x, thresholds_from_x)
+        if vv is None:
+            zero = np.zeros(xi.shape[:2])
+            out.update({"LAGS_C": zero, "LAGS_F1": zero, "LAGS_F2": zero, "T": zero, "sliding": zero,
+                        "contact": np.full(xi.shape[:2], 1.0 if self._bonded else 0.0)})
+            return out
+        lam, T, s, chi, sliding = vv
+        lin = op.mesh.element.shape_linear(xi)                                       # (k, p, nv)
+        Tq = np.einsum("kpv,kvc->kpc", lin, T)
+        sq = np.einsum("kpv,kv->kp", lin, s)
+        on = lin > 1e-14
+        out.update({"LAGS_C": np.einsum("kpv,kv->kp", lin, lam),
+                    "LAGS_F1": nodal.semi_multiplier(Tq[..., 0], sq, self.mu),
+                    "LAGS_F2": nodal.semi_multiplier(Tq[..., 1], sq, self.mu),
+                    "T": np.linalg.norm(Tq, axis=-1),
+                    "contact": np.max(np.where(on, chi[:, None, :], 0.0), axis=-1, initial=0.0),
+                    "sliding": np.max(np.where(on, sliding[:, None, :], 0.0), axis=-1, initial=0.0)})
+        return out
 
     def _end_values(self, x: PETSc.Vec, thresholds_from_x: bool = False) -> EndValues:
         """The law's values at the segment ends (see :meth:`InterfaceOperator.point_values`):

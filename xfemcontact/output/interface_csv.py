@@ -173,7 +173,7 @@ def chain(start: FloatArray, stop: FloatArray) -> tuple[IntArray, IntArray, Bool
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    from xfemcontact.post.postmesh import merge_points
+    from xfemcontact.post.points import merge_points
 
     K = len(start)
     if K == 0:

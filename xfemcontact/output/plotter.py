@@ -149,7 +149,7 @@ def run_jobs(jobs: Iterable[Job], folder_path: PathName, times: dict[str, float]
     done: list[str] = []
     for name, function, args in jobs:
         t0 = time.process_time()
-        fig = getattr(plots, function)(*args)
+        fig = plots.figure_function(function)(*args)
         FigureCanvasAgg(fig)             # the figure is drawn once, by savefig
         fig.savefig(os.path.join(folder_path, name), **plots.SAVE_OPTIONS)
         done.append(name)

@@ -61,7 +61,8 @@ def geometry_summary(model: Model) -> dict[str, Any] | None:
     if model.mesh.dim == 3:             # the interface is made of facets, not segments
         live = sum(int(f.live.sum()) for f in (geo.facets, geo.face_facets) if f is not None)
         area = sum(float(p.w.sum()) for p in geo.interface_points(model.mesh))
-        facets = {"interface_facets": mpi.allreduce(live), "interface_area": mpi.allreduce(area)}
+        facets = {"interface_facets": mpi.allreduce(live), "interface_area": mpi.allreduce(area),
+                  "off_surface_midnodes": mpi.allreduce(geo.off_surface), "folded_cells": mpi.allreduce(geo.folded)}
     return {**facets, "cut_cells": mpi.allreduce(len(geo.cut_cells)),
             "cut_cells_per_process": mpi.allgather(len(geo.cut_cells)),
             "edge_segments": mpi.allreduce(len(geo.edge_segments)),
@@ -69,7 +70,8 @@ def geometry_summary(model: Model) -> dict[str, Any] | None:
             "dropped_heaviside_nodes": mpi.allreduce(geo.dropped),
             "readjusted": {"roundoff": mpi.allreduce(r.roundoff), "fitted_vertices": mpi.allreduce(r.fitted_vertices),
                            "lifted_edges": mpi.allreduce(r.lifted_edges),
-                           "pushed_off_edges": mpi.allreduce(r.pushed_off)}}
+                           "pushed_off_edges": mpi.allreduce(r.pushed_off),
+                           "double_crossed_edges": mpi.allreduce(r.double_crossings)}}
 
 
 def interface_table(model: Model) -> dict[str, list[Any]] | None:
@@ -91,7 +93,9 @@ def interface_table(model: Model) -> dict[str, list[Any]] | None:
 
 def write_fields(folder: OutputFolder, model: Model) -> tuple[PostMesh | None, list[str]]:
     """The post-processing mesh and its fields (see :mod:`xfemcontact.post.postmesh`) as
-    fields.xdmf + fields.h5 (and fields.vtu, fields.med if asked).  Collective.
+    fields.xdmf + fields.h5 (and fields.vtu, fields.med if asked); in 3-D its interface
+    surface (:mod:`xfemcontact.post.surface`) as interface.xdmf + interface.h5 (and
+    interface.vtu with vtu).  Collective.
 
     Returns the PostMesh and the file names written on rank 0, (None, []) elsewhere.
     """
@@ -102,18 +106,21 @@ def write_fields(folder: OutputFolder, model: Model) -> tuple[PostMesh | None, l
     if post is None:
         return None, []
     formats = model.case.output.formats
+    meshes = [("fields", post)] + ([("interface", post.interface)] if post.interface is not None else [])
     written: list[str] = []
     if "xdmf" in formats:
         from xfemcontact.output import xdmf
 
         with timing.step("output:xdmf"):
-            xdmf.write(folder.file("fields.xdmf"), post)
-        written += ["fields.xdmf", "fields.h5"]
+            for name, mesh in meshes:
+                xdmf.write(folder.file(f"{name}.xdmf"), mesh)
+                written += [f"{name}.xdmf", f"{name}.h5"]
     if "vtu" in formats or "med" in formats:
         import meshio
     if "vtu" in formats:
-        meshio.write(folder.file("fields.vtu"), post.to_meshio(), file_format="vtu")
-        written.append("fields.vtu")
+        for name, mesh in meshes:
+            meshio.write(folder.file(f"{name}.vtu"), mesh.to_meshio(), file_format="vtu")
+            written.append(f"{name}.vtu")
     if "med" in formats:
         meshio.write(folder.file("fields.med"), post.to_meshio(med=True), file_format="med")
         written.append("fields.med")
@@ -161,7 +168,10 @@ def write_outputs(folder: OutputFolder, model: Model, converged: bool, reason: i
     if helper is not None:
         with timing.step("output:plots"):
             jobs = plots.mesh_jobs(title, post, table, case.material.E,
-                                   friction=bool(model.problem is not None and model.problem.friction))
+                                   friction=bool(model.problem is not None and model.problem.friction),
+                                   multipliers=bool(model.law is not None and model.law.multipliers),
+                                   references=case.reference,
+                                   profile=(case.output.profile_point, case.output.profile_normal))
             if not helper.send(jobs, folder.file(".")):
                 here += jobs
             drawn = plots.run(folder, here)

@@ -8,7 +8,7 @@ sub-cells with the Heaviside part of each side.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Iterator
+from typing import TYPE_CHECKING, Any, Iterator
 
 import numpy as np
 
@@ -19,7 +19,7 @@ from xfemcontact.xfem import geometry as xgeo
 from xfemcontact.xfem import integration
 
 if TYPE_CHECKING:
-    from numpy.typing import NDArray
+    from numpy.typing import ArrayLike, NDArray
 
     from xfemcontact.dofs.layout import DofLayout
     from xfemcontact.fem.elements import Element
@@ -130,3 +130,33 @@ def _curved_points(el: Element, xc: FloatArray, ue: FloatArray) -> tuple[FloatAr
     """As :func:`_affine_points` for cells with a Jacobian that varies."""
     pts = integration.cell_points(el, xc, np.arange(len(xc)), np.ones(len(xc)))
     return pts.x, pts.w, elasticity.strain(pts.dNdx, ue)
+
+
+def cell_node_displacement(model: Any, xl: FloatArray, cells: IntArray, side: ArrayLike) -> FloatArray:
+    """Displacement ``(k, nn, d)`` (m) at the nodes of local ``cells (k,)`` on side
+    ``side (k,)``: the shape functions are 1 at their own node, so ``u_a + psi_a h_a``.
+    ``model``: a :class:`~xfemcontact.model.Model` (not imported: it imports this module)."""
+    mesh, geo, layout = model.mesh, model.geo, model.layout
+    nodes = mesh.cell_nodes[cells]
+    u = xl[layout.u_local[nodes]]
+    if geo is not None:
+        hl = np.where(layout.h_local >= 0, layout.h_local, layout.dummy)
+        psi = (np.asarray(side)[:, None] - geo.node_side[nodes]) * geo.enriched[nodes]
+        u = u + psi[..., None] * xl[hl[nodes]]
+    return u
+
+
+def displacement_at(model: Any, xl: FloatArray, cells: IntArray, xi: FloatArray,
+                    side: ArrayLike) -> FloatArray:
+    """Displacement ``(k, p, d)`` (m) at parent reference points ``xi (k, p, d)`` of
+    local ``cells (k,)``, on side ``side (k,)``:
+    ``u = sum N_a a_a + sum psi_a N_a h_a``, ``psi_a = H(side) - H(node a)``."""
+    mesh, geo, layout = model.mesh, model.geo, model.layout
+    nodes = mesh.cell_nodes[cells]
+    N = mesh.element.shape(xi)                                                # (k, p, nn)
+    u = np.matmul(N, xl[layout.u_local[nodes]])
+    if geo is not None:
+        hl = np.where(layout.h_local >= 0, layout.h_local, layout.dummy)
+        psi = (np.asarray(side)[:, None] - geo.node_side[nodes]) * geo.enriched[nodes]   # (k, nn)
+        u += np.matmul(N * psi[:, None, :], xl[hl[nodes]])
+    return u

@@ -11,21 +11,31 @@
 * ``plot_convergence.png`` (several Newton solves only): Newton residual norms of
   every solve of the contact / friction loops, and the threshold changes.
 
+In 3-D (:mod:`xfemcontact.post.plots3d`): ``plot_interface.png`` (the interface
+surface coloured by LAGS_C and the statuses), ``plot_profiles.png`` (the interface
+fields along cuts by planes) and ``plot_deformed.png`` (the deformed body cut in half);
+``plot_convergence.png`` as in 2-D.
+
 Each ``*_figure`` function returns a :class:`matplotlib.figure.Figure` built from
 plain arrays (the columns of interface.csv, the post mesh, results.json's
 iteration record), so a plot can be redrawn from the files.
 """
 from __future__ import annotations
 
+import importlib
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Protocol, Sequence
 
 import numpy as np
 
+from xfemcontact.post.drawing import colour_limits as _colour_limits
+from xfemcontact.post.drawing import figure as _figure
+from xfemcontact.post.drawing import rasterise
+
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
-    from numpy.typing import ArrayLike, NDArray
+    from numpy.typing import NDArray
 
     from xfemcontact.output.interface_csv import InterfaceTable
     from xfemcontact.post.postmesh import PostMesh
@@ -57,17 +67,6 @@ DEFORMATION = 0.05          # largest displayed displacement / domain size
 FIELD_UNITS = {"LAGS_C": "Pa", "LAGS_F1": "-", "gap": "m", "slip": "m", "SIYY": "Pa"}
 SIDE_STYLE = {-1: dict(color="tab:red", lw=1.6, ls="-", label="interface, LN < 0 side"),
               1: dict(color="black", lw=1.0, ls="--", label="interface, LN > 0 side")}
-
-
-def _figure(w: float, h: float, **margins: float) -> Figure:
-    """A figure of ``w`` x ``h`` inches with fixed margins (``subplots_adjust``
-    arguments, fractions of the figure): matplotlib's constrained layout measured
-    every tick label twice and took half of the drawing time."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(w, h), dpi=110)
-    fig.subplots_adjust(**margins)
-    return fig
 
 
 def _curves(cols: Columns) -> list[IntArray]:
@@ -316,50 +315,6 @@ def _ring(k: int) -> IntArray:
     return np.c_[i, (i + 1) % k]
 
 
-def rasterise(tri: FloatArray, label: IntArray, W: int, H: int, chunk: int = 1 << 21) -> IntArray:
-    """Label image ``(H, W)`` of triangles ``tri (T, 3, 2)`` given in pixel units
-    (pixel ``(i, j)`` has its centre at ``(i, j)``): every pixel whose centre lies
-    in triangle ``t`` gets ``label[t]`` (a later triangle wins), -1 elsewhere.
-
-    Each triangle's three edge functions ``w = a x + b y + c`` (positive inside for
-    a counter-clockwise triangle) are tested at the pixel centres of its bounding
-    box, ``chunk`` candidate pixels at a time."""
-    img = np.full((H, W), -1, np.int64)
-    x, y = tri[..., 0], tri[..., 1]
-    area: FloatArray = (x[:, 1] - x[:, 0]) * (y[:, 2] - y[:, 0]) - (x[:, 2] - x[:, 0]) * (y[:, 1] - y[:, 0])
-    sgn = np.where(area < 0, -1.0, 1.0)
-    coef = []
-    for i, j in ((0, 1), (1, 2), (2, 0)):                    # edge i -> j, inside on its left
-        a = -(y[:, j] - y[:, i]) * sgn
-        b = (x[:, j] - x[:, i]) * sgn
-        coef.append((a, b, -(a * x[:, i] + b * y[:, i])))
-    x0 = np.clip(np.ceil(np.minimum(np.minimum(x[:, 0], x[:, 1]), x[:, 2])), 0, W).astype(np.int64)
-    x1 = np.clip(np.floor(np.maximum(np.maximum(x[:, 0], x[:, 1]), x[:, 2])), -1, W - 1).astype(np.int64)
-    y0 = np.clip(np.ceil(np.minimum(np.minimum(y[:, 0], y[:, 1]), y[:, 2])), 0, H).astype(np.int64)
-    y1 = np.clip(np.floor(np.maximum(np.maximum(y[:, 0], y[:, 1]), y[:, 2])), -1, H - 1).astype(np.int64)
-    nx, ny = np.maximum(x1 - x0 + 1, 0), np.maximum(y1 - y0 + 1, 0)
-    count = nx * ny
-    keep = np.nonzero(count)[0]
-    ends = np.cumsum(count[keep])
-    first = 0
-    while first < len(keep):
-        base = ends[first - 1] if first else 0
-        last = max(int(np.searchsorted(ends, base + chunk, side="right")), first + 1)
-        t = keep[first:last]
-        c = count[t]
-        tt = np.repeat(t, c)
-        k = np.arange(int(c.sum())) - np.repeat(np.cumsum(c) - c, c)
-        nxt = nx[tt]
-        ix = x0[tt] + k % nxt
-        iy = y0[tt] + k // nxt
-        inside = np.ones(len(tt), bool)
-        for a, b, d in coef:
-            inside &= a[tt] * ix + b[tt] * iy + d[tt] >= 0
-        img[iy[inside], ix[inside]] = label[tt[inside]]
-        first = last
-    return img
-
-
 def _segment_pixels(seg: FloatArray, W: int, H: int) -> tuple[IntArray, IntArray]:
     """Pixels ``(ix, iy)`` along segments ``seg (S, 2, 2)`` in pixel units, one sample
     per pixel of length."""
@@ -372,17 +327,6 @@ def _segment_pixels(seg: FloatArray, W: int, H: int) -> tuple[IntArray, IntArray
     ix = np.clip(np.rint(p[:, 0]).astype(np.int64), 0, W - 1)
     iy = np.clip(np.rint(p[:, 1]).astype(np.int64), 0, H - 1)
     return ix, iy
-
-
-def _colour_limits(v: ArrayLike, scale: float = 0.0) -> tuple[float, float]:
-    """Data range, widened to +-1e-3 max(|mean|, scale) around the mean when the field
-    is nearly uniform (so round-off does not paint a uniform field in every colour)."""
-    lo, hi = float(np.min(v)), float(np.max(v))
-    mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    floor = 1e-3 * max(abs(mid), scale, 1e-300)
-    if half < floor:
-        half = floor if mid != 0 else 1.0
-    return mid - half, mid + half
 
 
 def _interface_edges(blocks: Blocks, nfissu: IntArray, side: int, xd: FloatArray) -> FloatArray:
@@ -533,10 +477,15 @@ def line_jobs(title: str, table: InterfaceTable | None = None, history: Sequence
 
 
 def mesh_jobs(title: str, post: PostMesh | None = None, table: InterfaceTable | None = None,
-              young: float = 0.0, friction: bool = True) -> list[Job]:
+              young: float = 0.0, friction: bool = True, multipliers: bool = True,
+              references: Mapping[str, Callable[..., Any]] | None = None,
+              profile: tuple[Sequence[float] | None, Sequence[float] | None] = (None, None)) -> list[Job]:
     """The plots that need the post-processing mesh (the status plot scales its jump
     axes with the largest displacement): the deformed mesh, reduced by
-    :func:`deformed_data` to what the picture shows, and the statuses."""
+    :func:`deformed_data` to what the picture shows, and the statuses; in 3-D those of
+    :func:`xfemcontact.post.plots3d.jobs` (``multipliers``: the interface has LAGS_C;
+    ``references``: the case's formulas of x, y, z for the profiles; ``profile``: the
+    ``[output]`` profile point and normal, None for the defaults)."""
     umax, size = 0.0, 1.0
     if post is not None and len(post.points):
         umax = float(np.nan_to_num(np.linalg.norm(post.displacement(), axis=1)).max()) \
@@ -546,14 +495,32 @@ def mesh_jobs(title: str, post: PostMesh | None = None, table: InterfaceTable | 
     jobs: list[Job] = []
     if table is not None and len(table.columns.get("s", ())):
         jobs.append(("plot_status.png", "status_figure", (table.columns, title, umax, friction)))
-    if post is not None and post.points.shape[1] == 2:          # the deformed mesh is drawn in 2-D only
+    if post is not None and post.points.shape[1] == 2:
         data = deformed_data(post.points, post.blocks, post.point_data, post.cell_data,
                              stress_scale=young * umax / size)
         jobs.append(("plot_deformed.png", "draw_deformed", (data, title)))
+    elif post is not None:                                      # 3-D
+        from xfemcontact.post import plots3d
+
+        jobs += plots3d.jobs(title, post, multipliers, young * umax / size, references, *profile)
     return jobs
 
 
-ORDER = ("plot_multipliers.png", "plot_status.png", "plot_deformed.png", "plot_convergence.png")
+#: the plots of a 2-D run with an interface, and the order of every plot in report.md
+PLOTS_2D = ("plot_multipliers.png", "plot_status.png", "plot_deformed.png", "plot_convergence.png")
+ORDER = ("plot_multipliers.png", "plot_status.png", "plot_interface.png", "plot_profiles.png",
+         "plot_deformed.png", "plot_convergence.png")
+
+
+def figure_function(name: str) -> Callable[..., Figure]:
+    """The function of a job (:data:`Job`): a function of this module, or ``module.name``
+    of a module of :mod:`xfemcontact.post` (the 3-D plots: ``plots3d.draw_interface``)."""
+    if "." in name:
+        module, name = name.rsplit(".", 1)
+        function: Callable[..., Figure] = getattr(importlib.import_module(f"xfemcontact.post.{module}"), name)
+        return function
+    found: Callable[..., Figure] = globals()[name]
+    return found
 
 
 def run(folder: Folder, jobs: Sequence[Job]) -> list[str]:
@@ -565,7 +532,7 @@ def run(folder: Folder, jobs: Sequence[Job]) -> list[str]:
     written: list[str] = []
     for name, function, args in jobs:
         try:
-            fig = globals()[function](*args)
+            fig = figure_function(function)(*args)
             FigureCanvasAgg(fig)             # the figure is drawn once, by savefig
             fig.savefig(folder.file(name), **SAVE_OPTIONS)
         except (ValueError, IndexError, TypeError, OverflowError, FloatingPointError,

@@ -10,7 +10,7 @@
 
 Point fields: DX, DY, [DZ] (m, the displacement of the point's own side, Heaviside
 part included), ``displacement`` (DX, DY, 0 or DZ) for ParaView's *Warp By Vector*,
-LAGS_C (Pa) and LAGS_F1 (-) at interface points (0 elsewhere), the contact
+LAGS_C (Pa) and LAGS_F1 (-) (3-D: and LAGS_F2) at interface points (0 elsewhere), the contact
 (1 contact / 0 open) and sliding (1 slip / 0 stick) statuses of the nearest
 interface Gauss point (0 elsewhere), and NFISSU: -1 on the copies of the
 LN < 0 side (code_aster's "NM" nodes), +1 on those of the LN > 0 side ("NP"),
@@ -23,6 +23,10 @@ sub-tetrahedron in its parent, -1 for uncut cells).
 
 In MED files the interface copies also form node groups NM (LN < 0 side), NP
 (LN > 0 side) and NFISSU (both), as POST_MAIL_XFEM names them.
+
+In 3-D the interface surface itself (its curved facets with every interface field) is
+a mesh of its own, :attr:`PostMesh.interface` (:mod:`xfemcontact.post.surface`), and
+the interface points of this mesh take their multipliers and statuses from it.
 
 Every process computes its own cells; rank 0 gathers them and numbers cells by
 (block, input cell, sub-cell) and points by first use, so the files do not
@@ -42,13 +46,15 @@ from xfemcontact.assembly import bulk
 from xfemcontact.assembly.system import enriched_gradients
 from xfemcontact.fem import elasticity
 from xfemcontact.fem.elements import element
-from xfemcontact.post import fields
+from xfemcontact.post import fields, surface
+from xfemcontact.post.fields import cell_node_displacement, displacement_at
+from xfemcontact.post.points import MERGE_TOL, diagonal, merge_points
 from xfemcontact.xfem import geometry as xgeo
 from xfemcontact.xfem.cut import segment_curve
 
 if TYPE_CHECKING:
     import meshio
-    from numpy.typing import ArrayLike, NDArray
+    from numpy.typing import NDArray
 
     from xfemcontact.model import Model
     from xfemcontact.xfem.integration import CellPoints, SegmentPoints
@@ -62,8 +68,6 @@ if TYPE_CHECKING:
 MESHIO_CELL = {"QUAD8": "quad8", "TRIA6": "triangle6", "HEXA20": "hexahedron20", "TETRA10": "tetra10"}
 #: interface points of a cut-cell segment: its ends, mid-point and quarter points
 SEGMENT_POINTS = np.array([-1.0, -0.5, 0.0, 0.5, 1.0])
-#: points closer than this fraction of the mesh's bounding-box diagonal are one point
-MERGE_TOL = 1e-11
 #: interface samples farther than this (same unit) from every interface point are not post-mesh points
 SAMPLE_TOL = 1e-9
 CELL_FIELDS = ("SIXX", "SIYY", "SIXY", "EPXX", "EPYY", "EPXY", "side", "cell", "subcell")
@@ -72,6 +76,9 @@ CELL_FIELDS_3D = ("SIXX", "SIYY", "SIZZ", "SIXY", "SIXZ", "SIYZ",
                   "EPXX", "EPYY", "EPZZ", "EPXY", "EPXZ", "EPYZ", "side", "cell", "subcell")
 #: the element of the sub-cells of cut cells, per dimension
 SUBCELL = {2: "TRIA6", 3: "TETRA10"}
+#: the interface fields of the interface points, per dimension (0 elsewhere)
+MULTIPLIER_FIELDS = {2: ("LAGS_C", "LAGS_F1", "contact", "sliding"),
+                     3: ("LAGS_C", "LAGS_F1", "LAGS_F2", "contact", "sliding")}
 #: Voigt components, per dimension
 VOIGT = {2: ("XX", "YY", "XY"), 3: ("XX", "YY", "ZZ", "XY", "XZ", "YZ")}
 
@@ -92,8 +99,9 @@ class PostMesh:
     points: FloatArray                          # (np, d) m
     blocks: list[tuple[str, IntArray]]          # [(meshio cell type, connectivity (k, nn))], quad8 before
                                                 # triangle6, in meshio's node order
-    point_data: dict[str, NDArray[Any]]         # name -> (np,)
+    point_data: dict[str, NDArray[Any]]         # name -> (np,) (or (np, 3) vectors)
     cell_data: dict[str, list[NDArray[Any]]]    # name -> [(k,) per block]
+    interface: PostMesh | None = None           # 3-D: the interface surface (post.surface)
 
     def point_fields(self) -> Iterator[tuple[str, NDArray[Any]]]:
         """``(name, array)`` of the point fields of the XDMF and VTU files: those of
@@ -159,7 +167,7 @@ def _pieces(model: Model, xl: FloatArray) -> Columns:
     sig = eps @ model.D.T
     nodes = mesh.cell_nodes[uncut]
     parts = [dict(cell=mesh.cell_ids[uncut], sub=np.full(len(uncut), -1), nn=np.full(len(uncut), el.nn),
-                  x=mesh.x[nodes], node=mesh.node_ids[nodes], u=nodal_displacement(model, xl, uncut, side_u),
+                  x=mesh.x[nodes], node=mesh.node_ids[nodes], u=cell_node_displacement(model, xl, uncut, side_u),
                   side=side_u, sig=sig[uncut], eps=eps[uncut])]
     if cut.any():
         parts.append(_subcell_pieces(model, xl))
@@ -201,9 +209,12 @@ def _subcell_group(model: Model, xl: FloatArray, pts: CellPoints) -> Columns:
     x = el.map_points(mesh.x[mesh.cell_nodes[cells]], xi)
     ue = xl[bulk.enriched_batch(mesh, layout, pts.cells).local]
     e = elasticity.strain(enriched_gradients(mesh, geo, pts), ue)             # (k, ns nq, nv)
-    w = pts.w.reshape(k, ns, -1)                                              # sub-cell major
-    vol = w.sum(axis=2)                                                       # > 0 but for folded ones
-    area = np.where(np.abs(vol) > 1e-300, vol, 1e-300)[..., None]
+    # the mean with |w|: the same where the sub-cell's Jacobian is positive; where a thin
+    # curved sub-tetrahedron folds, its signed volume nearly cancels and the signed mean
+    # was off by orders of magnitude (SIZZ 9e14 Pa in a box under 150 Pa)
+    w = np.abs(pts.w.reshape(k, ns, -1))                                      # sub-cell major
+    vol = w.sum(axis=2)
+    area = np.where(vol > 1e-300, vol, 1e-300)[..., None]
     eps = np.einsum("ksq,ksqi->ksi", w, e.reshape(k, ns, -1, nv)) / area      # (k, ns, nv)
     sig = eps @ model.D.T                                                     # linear: mean of D eps
     return dict(cell=mesh.cell_ids[cells], sub=np.nonzero(live)[1], nn=np.full(len(cells), nsn),
@@ -211,45 +222,17 @@ def _subcell_group(model: Model, xl: FloatArray, pts: CellPoints) -> Columns:
                 side=side, sig=sig[live], eps=eps[live])
 
 
-def nodal_displacement(model: Model, xl: FloatArray, cells: IntArray, side: ArrayLike) -> FloatArray:
-    """Displacement ``(k, nn, d)`` (m) at the nodes of local ``cells (k,)`` on side
-    ``side (k,)``: the shape functions are 1 at their own node, so ``u_a + psi_a h_a``."""
-    mesh, geo, layout = model.mesh, model.geo, model.layout
-    nodes = mesh.cell_nodes[cells]
-    u = xl[layout.u_local[nodes]]
-    if geo is not None:
-        hl = np.where(layout.h_local >= 0, layout.h_local, layout.dummy)
-        psi = (np.asarray(side)[:, None] - geo.node_side[nodes]) * geo.enriched[nodes]
-        u = u + psi[..., None] * xl[hl[nodes]]
-    return u
-
-
-def displacement_at(model: Model, xl: FloatArray, cells: IntArray, xi: FloatArray,
-                    side: ArrayLike) -> FloatArray:
-    """Displacement ``(k, p, d)`` (m) at parent reference points ``xi (k, p, d)`` of
-    local ``cells (k,)``, on side ``side (k,)``:
-    ``u = sum N_a a_a + sum psi_a N_a h_a``, ``psi_a = H(side) - H(node a)``."""
-    mesh, geo, layout = model.mesh, model.geo, model.layout
-    nodes = mesh.cell_nodes[cells]
-    N = mesh.element.shape(xi)                                                # (k, p, nn)
-    u = np.matmul(N, xl[layout.u_local[nodes]])
-    if geo is not None:
-        hl = np.where(layout.h_local >= 0, layout.h_local, layout.dummy)
-        psi = (np.asarray(side)[:, None] - geo.node_side[nodes]) * geo.enriched[nodes]   # (k, nn)
-        u += np.matmul(N * psi[:, None, :], xl[hl[nodes]])
-    return u
-
-
 def interface_samples(model: Model) -> Columns | None:
     """Multipliers and statuses at the interface points of every local segment
     (its ends, mid-point and quarter points).  Collective (reads remote dofs).
 
     Returns a dict of flat arrays: x, y (m), cell (input cell id), LAGS_C (Pa),
-    LAGS_F1, contact, sliding; None without multipliers (and in 3-D).
+    LAGS_F1, contact, sliding; None without multipliers (and in 3-D: the facets' nodes of
+    :func:`xfemcontact.post.surface.samples` instead).
     """
     problem = model.problem
     if problem is None or problem.space is None or problem.segments is None:
-        return None                     # 3-D: the post mesh has no interface fields yet
+        return None
     mesh, el = model.mesh, model.mesh.element
     segs = problem.segments
     xi, x, _ = segment_curve(el, mesh.x[mesh.cell_nodes[segs.cells]], segs.nodes, SEGMENT_POINTS)
@@ -268,8 +251,10 @@ def interface_samples(model: Model) -> Columns | None:
 def build(model: Model) -> PostMesh | None:
     """The PostMesh on rank 0, None elsewhere.  Collective."""
     xl = model.local_solution()
-    payload = (_pieces(model, xl), interface_samples(model), _cut_cell_nodes(model))
-    del xl
+    surf = surface.local_pieces(model, xl)                  # 3-D: the interface facets
+    payload = (_pieces(model, xl), interface_samples(model) if surf is None else surface.samples(surf),
+               _cut_cell_nodes(model), surf)
+    del xl, surf
     mpi = model.comm.tompi4py()
     parts = [payload] if mpi.size == 1 else mpi.gather(payload, root=0)    # one process: no copy
     if parts is None:
@@ -285,8 +270,15 @@ def build(model: Model) -> PostMesh | None:
         every = cast("list[Columns]", [p[1] for p in parts])   # every process has samples, or none
         samples = {k: joined([v[k] for v in every]) for k in parts[0][1]}
     near = np.unique(np.concatenate([p[2] for p in parts]))
+    facets = None
+    if parts[0][3] is not None:                             # every process has facets, or none
+        every = cast("list[Columns]", [p[3] for p in parts])
+        facets = {k: joined([v[k] for v in every]) for k in every[0]}
     del parts
-    return assemble(pieces, samples, model.mesh.cell_type, near)
+    post = assemble(pieces, samples, model.mesh.cell_type, near)
+    if facets is not None:
+        post.interface = PostMesh(*surface.assemble(facets))
+    return post
 
 
 def _cut_cell_nodes(model: Model) -> IntArray:
@@ -331,8 +323,7 @@ def assemble(pieces: Columns, samples: Columns | None, cell_type: str,
     on_itf = nsides[ploc] > 1
     us = p["u"][slot][pfirst]
     pd = {**{c: us[:, i] for i, c in enumerate(("DX", "DY", "DZ")[:d])},
-          "LAGS_C": np.zeros(len(points)), "LAGS_F1": np.zeros(len(points)),
-          "contact": np.zeros(len(points)), "sliding": np.zeros(len(points)),
+          **{c: np.zeros(len(points)) for c in MULTIPLIER_FIELDS[d]},
           "NFISSU": np.where(on_itf, pside, 0).astype(np.int64)}
     if samples is not None and on_itf.any():
         _set_interface_values(pd, points, ploc, on_itf, samples)
@@ -385,7 +376,7 @@ def slot_locations(xs: FloatArray, node: IntArray, near: IntArray | None = None)
     key = node.astype(np.int64).copy()
     free = np.nonzero(key < 0)[0]
     if len(free):
-        diag = _diagonal(xs)
+        diag = diagonal(xs)
         known = np.nonzero(key >= 0)[0]
         if near is not None and len(known):
             candidate = np.zeros(max(int(key.max()), int(near.max(initial=0))) + 1, bool)
@@ -406,55 +397,25 @@ def slot_locations(xs: FloatArray, node: IntArray, near: IntArray | None = None)
     return rank[inv]
 
 
-def _diagonal(xs: FloatArray) -> float:
-    """Bounding-box diagonal of ``xs (S, d)``, 1 if empty or a single point."""
-    if len(xs) == 0:
-        return 1.0
-    # column by column: numpy reduces an (S, 2) array along axis 0 ten times slower
-    sides = [np.ptp(xs[:, i]) for i in range(xs.shape[1])]
-    if len(sides) == 2:
-        return float(np.hypot(*sides)) or 1.0
-    return float(np.sqrt(sum(a * a for a in sides))) or 1.0
-
-
-def merge_points(xs: FloatArray, diag: float | None = None) -> IntArray:
-    """Label ``(S,)`` of each point of ``xs (S, d)``: equal for points closer than
-    MERGE_TOL times the bounding-box diagonal, numbered by first appearance."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-    from scipy.spatial import cKDTree
-
-    n = len(xs)
-    if n == 0:
-        return np.zeros(0, np.int64)
-    diag = _diagonal(xs) if diag is None else diag
-    pairs = cKDTree(xs).query_pairs(MERGE_TOL * diag, output_type="ndarray")
-    g = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
-    _, lab = connected_components(g, directed=False)
-    _, first, inv = np.unique(lab, return_index=True, return_inverse=True)
-    rank = np.empty(len(first), np.int64)
-    rank[np.argsort(first, kind="stable")] = np.arange(len(first))
-    return rank[inv]
-
-
 def _set_interface_values(pd: dict[str, NDArray[Any]], points: FloatArray, ploc: IntArray, on_itf: BoolArray,
                           samples: Columns) -> None:
-    """LAGS_C, LAGS_F1 and statuses at the interface points (every copy), from the
-    sample of the lowest input cell at that location; samples at no post-mesh
+    """LAGS_C, LAGS_F1 (3-D: LAGS_F2) and statuses at the interface points (every copy),
+    from the sample of the lowest input cell at that location; samples at no post-mesh
     point (quarter points of segments lying on cell edges) are ignored."""
     from scipy.spatial import cKDTree
 
+    dim = points.shape[1]
     ip = np.nonzero(on_itf)[0]
     locs, first = np.unique(ploc[ip], return_index=True)
     xy = points[ip[first]]                                                    # one per location
-    diag = _diagonal(points)
+    diag = diagonal(points)
     order = np.argsort(samples["cell"], kind="stable")
-    sx = np.c_[samples["x"], samples["y"]][order]
+    sx = np.stack([samples[c] for c in ("x", "y", "z")[:dim]], axis=1)[order]
     d, j = cKDTree(xy).query(sx, distance_upper_bound=SAMPLE_TOL * diag)
     hit = np.nonzero(np.isfinite(d))[0]
     loc_hit, take = np.unique(j[hit], return_index=True)                     # first sample per location
     pos = np.searchsorted(locs, ploc[ip])
-    for key in ("LAGS_C", "LAGS_F1", "contact", "sliding"):
+    for key in MULTIPLIER_FIELDS[dim]:
         v = np.zeros(len(locs))
         v[loc_hit] = samples[key][order][hit[take]]
         pd[key][ip] = v[pos]

@@ -27,15 +27,18 @@ if TYPE_CHECKING:
     IntArray = NDArray[np.int64]
 
 
-def _gathered_system(model: Model,
-                     values: list[FloatArray]) -> tuple[IntArray, Any, list[NDArray[Any]]]:
+def _gathered_system(model: Model, values: list[FloatArray], phi: FloatArray | None = None,
+                     dof: IntArray | None = None) -> tuple[IntArray, Any, list[NDArray[Any]]]:
     """Mass matrix of the carriers' traces and right-hand sides of ``values`` (list of
-    (k, ng) arrays at the interface Gauss points), summed over every process."""
+    (k, ng) arrays at the interface Gauss points), summed over every process.  ``phi (k,
+    ng, m)``, ``dof (k, m)``: the functions at the points and their global ids (-1: none);
+    by default the run's multiplier space (the global LAGS_C indices of its carriers)."""
     problem = model.problem
     # a contact problem (multipliers): it has phi and rep_index
     assert problem is not None and problem.phi is not None and problem.rep_index is not None
-    w, phi = problem.points.w, problem.phi                      # (k, ng), (k, ng, m)
-    dof = problem.rep_index                                      # (k, m) global LAGS_C index
+    w = problem.points.w                                         # (k, ng)
+    phi = problem.phi if phi is None else phi                    # (k, ng, m)
+    dof = problem.rep_index if dof is None else dof              # (k, m)
     M = np.einsum("kq,kqa,kqb->kab", w, phi, phi)
     rows = np.broadcast_to(dof[:, :, None], M.shape)
     cols = np.broadcast_to(dof[:, None, :], M.shape)
@@ -88,3 +91,38 @@ def best_errors(model: Model, lags_c: Formula, lags_f1: Formula) -> dict[str, fl
     return {name: mpi.allreduce(float(np.abs(v[name] - ref(x=v["x"], y=v["y"])).max(initial=0.0)),
                                 op=MPI.MAX)
             for name, ref in (("LAGS_C", lags_c), ("LAGS_F1", lags_f1))}
+
+
+def best_approximation(model: Model, values: FloatArray, raw: bool = False) -> FloatArray:
+    """The L2 projection of a field given at the interface Gauss points ``values (k, ng)``
+    (this process's, as ``model.problem.points``) onto the trace of the multiplier space,
+    at the same points ``(k, ng)``: the run's space (weak vertices extrapolated, merges), or
+    with ``raw`` the raw vertex space (the vertex functions of every interface cell, each
+    vertex a dof; vertices whose trace is zero are left out).  Both dimensions; collective."""
+    problem = model.problem
+    assert problem is not None and problem.space is not None      # a law with multipliers
+    assert problem.phi is not None and problem.rep_index is not None
+    phi, dof = problem.phi, problem.rep_index
+    if raw:
+        phi = model.mesh.element.shape_linear(problem.points.xi)     # (k, ng, nv)
+        dof = problem.space.topo.verts                              # input ids of the vertices
+    ids, A, (b,) = _gathered_system(model, [values], phi, dof)
+    d = A.diagonal()
+    live = d > 1e-14 * (d.max() if len(d) else 1.0)
+    coef = np.zeros(len(ids) + 1)                                   # the last: padding slots
+    if live.any():
+        coef[:-1][live] = spl.spsolve(A[live][:, live].tocsc(), b[live])
+    at = np.where(dof >= 0, np.searchsorted(ids, np.maximum(dof, 0)), len(ids))
+    return np.einsum("kqa,ka->kq", phi, coef[at])
+
+
+def l2_norm(model: Model, values: FloatArray) -> float:
+    """sqrt(int v^2 dA / int dA) of ``values (k, ng)`` at the interface Gauss points (the
+    points' weights; every process)."""
+    from mpi4py import MPI
+
+    w = model.problem.points.w if model.problem is not None else np.zeros((0, 1))
+    mpi = model.comm.tompi4py()
+    num = mpi.allreduce(float((w * values ** 2).sum()), op=MPI.SUM)
+    den = mpi.allreduce(float(w.sum()), op=MPI.SUM)
+    return float(np.sqrt(num / den)) if den > 0 else 0.0

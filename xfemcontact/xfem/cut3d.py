@@ -297,9 +297,10 @@ def cut_cells(el: Element, phi_cell: FloatArray, cells: IntArray | None = None
                 Facets(cells, np.zeros((0, 1, 6, 3)), np.zeros((0, 1), bool)),
                 np.zeros(0, bool), np.zeros(0, np.int64))
     tets = parent_tets(el)                                     # (T, 4)
-    T = len(tets)
-    V = np.broadcast_to(el.ref_nodes[tets], (k, T, 4, 3))      # tetrahedron vertices, xi
+    V = np.broadcast_to(el.ref_nodes[tets], (k, len(tets), 4, 3))    # tetrahedron vertices, xi
     pv = phi_cell[:, tets]                                     # (k, T, 4)
+    V, pv, tlive = split_double_crossings(el, phi_cell, V, pv)
+    T = V.shape[1]
     pattern = ((pv >= 0) << np.arange(4)).sum(axis=-1)         # (k, T)
     # edge points
     ea, eb = tt.TET_EDGES.T
@@ -317,7 +318,7 @@ def cut_cells(el: Element, phi_cell: FloatArray, cells: IntArray | None = None
     row = pattern + 16 * quad_diagonals(el, phi_cell, P, V, pattern)
     # interface edges and their projected mid-nodes
     ie = tt.IFACE_EDGES[row]                                   # (k, T, 5, 2)
-    live_e = ie[..., 0] >= 0
+    live_e = (ie[..., 0] >= 0) & tlive[..., None]
     pa, pb = _take(P, ie[..., 0]), _take(P, ie[..., 1])
     opp = tt.SHARED_FACE[np.maximum(ie[..., 0] - 4, 0), np.maximum(ie[..., 1] - 4, 0)]   # (k, T, 5)
     fv = np.array([[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]])[np.maximum(opp, 0)]      # face vertices
@@ -343,17 +344,107 @@ def cut_cells(el: Element, phi_cell: FloatArray, cells: IntArray | None = None
     mi = tt.SUBTET_MID[row]                                # (k, T, 6, 6)
     smid = np.where((mi >= 0)[..., None], _take(M, mi), smid)
     snodes = np.concatenate([sv, smid], axis=3)                # (k, T, 6, 10, 3)
-    sside = tt.SUBTET_SIDE[row]
+    sside = np.where(tlive[..., None], tt.SUBTET_SIDE[row], 0)
     # facets
     fc = tt.FACETS[row]                                    # (k, T, 2, 3)
     fvx = _take(P, fc)
     fm = _take(M, tt.FACET_MID[row])                       # (k, T, 2, 3, 3)
     fnodes = np.concatenate([fvx, fm], axis=3)                 # (k, T, 2, 6, 3)
-    flive = fc[..., 0] >= 0
+    flive = (fc[..., 0] >= 0) & tlive[..., None]
     bad = negative_sides(snodes, sside)
     subs = _compact(SubTets(cells, snodes.reshape(k, -1, 10, 3), sside.reshape(k, -1)))
     facets = _compact_facets(Facets(cells, fnodes.reshape(k, -1, 6, 3), flive.reshape(k, -1)))
     return subs, facets, bad, off
+
+
+#: rounds of :func:`split_double_crossings` (each splits every tetrahedron at most once)
+SPLIT_ROUNDS = 3
+#: interior points per edge where :func:`split_double_crossings` looks for the other sign
+#: (besides the extremum of the quadratic through the ends and the middle: exact on the
+#: parent's edges, where LN is quadratic)
+DIP_SAMPLES = 7
+
+
+def split_double_crossings(el: Element, phi_cell: FloatArray, V: FloatArray, pv: FloatArray
+                           ) -> tuple[FloatArray, FloatArray, BoolArray]:
+    """Split the tetrahedra ``V (k, T, 4, 3)`` (vertex LN values ``pv (k, T, 4)``) that have
+    an edge whose ends have one sign while LN takes the other inside it: the interface
+    crosses that edge twice, cutting a thin cap of the other side off the edge, which the
+    signs at the vertices do not show.  Such a tetrahedron is split at the point of the
+    edge where LN is farthest on the other side, into the two tetrahedra that replace one
+    or the other end by that point (both keep the orientation); each has then one crossing
+    on each half of the edge, and the marching-tetrahedra tables cut the cap.  Repeated
+    :data:`SPLIT_ROUNDS` times (a tetrahedron with two such edges).  The split point lies on
+    the edge and LN along the edge is the same in every cell sharing it (the parent's P2 /
+    serendipity interpolant restricted to an edge or a face depends on that edge's or
+    face's nodes only), so neighbouring cells split their common faces alike.
+
+    A vertex with LN = 0 counts as + (the tables' rule); the other sign must be reached by
+    more than round-off (1e-12 of the cell's largest |LN|).  Returns the vertices ``(k, T',
+    4, 3)``, their LN values and which tetrahedra are live ``(k, T')`` (rows are padded with
+    copies of their first tetrahedron, not live).
+    """
+    k = len(V)
+    live = np.ones(V.shape[:2], bool)
+    if k == 0:
+        return np.array(V), np.array(pv), live
+    V, pv = np.array(V), np.array(pv)
+    tol = 1e-12 * np.abs(phi_cell).max(axis=1)                                 # (k,)
+    for _ in range(SPLIT_ROUNDS):
+        edge, t, value = _deepest_dips(el, phi_cell, V, pv, tol)               # (k, T) each
+        edge = np.where(live, edge, -1)
+        split = edge >= 0
+        if not split.any():
+            break
+        extra = split.sum(axis=1)
+        width = V.shape[1] + int(extra.max())
+        V2 = np.broadcast_to(V[:, :1], (k, width, 4, 3)).copy()
+        pv2 = np.broadcast_to(pv[:, :1], (k, width, 4)).copy()
+        live2 = np.zeros((k, width), bool)
+        T = V.shape[1]
+        V2[:, :T], pv2[:, :T], live2[:, :T] = V, pv, live
+        r, c = np.nonzero(split)
+        slot = T + (np.cumsum(split, axis=1) - 1)[r, c]                           # the second child's row
+        a, b = tt.TET_EDGES[edge[r, c], 0], tt.TET_EDGES[edge[r, c], 1]
+        P = V[r, c, a] + t[r, c, None] * (V[r, c, b] - V[r, c, a])
+        V2[r, slot], pv2[r, slot], live2[r, slot] = V[r, c], pv[r, c], True
+        V2[r, c, a], pv2[r, c, a] = P, value[r, c]                              # (P, b, ...): a replaced
+        V2[r, slot, b], pv2[r, slot, b] = P, value[r, c]                        # (a, P, ...): b replaced
+        V, pv, live = V2, pv2, live2
+    return V, pv, live
+
+
+def _deepest_dips(el: Element, phi_cell: FloatArray, V: FloatArray, pv: FloatArray, tol: FloatArray
+                  ) -> tuple[IntArray, FloatArray, FloatArray]:
+    """Per tetrahedron, its first edge (:data:`tet_tables.TET_EDGES` order) whose ends have
+    one sign while LN has the other inside (-1: none), the parameter of the point where LN
+    is farthest on the other side among the candidates (the extremum of the quadratic
+    through the ends and the middle, and :data:`DIP_SAMPLES` evenly spaced points), and LN
+    there."""
+    k, T = V.shape[:2]
+    ea, eb = tt.TET_EDGES.T
+    fa, fb = pv[..., ea], pv[..., eb]                                          # (k, T, 6)
+    same = (fa >= 0) == (fb >= 0)
+    sgn = np.where(fa >= 0, 1.0, -1.0)
+    xa, xb = V[:, :, ea], V[:, :, eb]
+    fm = phi_at(el, phi_cell, 0.5 * (xa + xb))
+    A, B = 2 * fa + 2 * fb - 4 * fm, -3 * fa + 4 * fm - fb                    # f(t) = A t^2 + B t + fa
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ext = np.where(np.abs(A) > 0, -B / np.where(np.abs(A) > 0, 2 * A, 1.0), 0.5)
+    ext = np.clip(np.nan_to_num(ext, nan=0.5), 1e-3, 1 - 1e-3)
+    ts = np.concatenate([ext[..., None], np.broadcast_to(np.arange(1, DIP_SAMPLES + 1) / (DIP_SAMPLES + 1),
+                                                         ext.shape + (DIP_SAMPLES,))], axis=-1)   # (k, T, 6, s)
+    x = xa[..., None, :] + ts[..., None] * (xb - xa)[..., None, :]
+    f = phi_at(el, phi_cell, x.reshape(k, -1, 3)).reshape(ts.shape)
+    depth = -sgn[..., None] * f                                                # > 0: the other sign
+    best = np.argmax(depth, axis=-1)
+    dmax = np.take_along_axis(depth, best[..., None], axis=-1)[..., 0]
+    dip = same & (dmax > tol[:, None, None]) & ((sgn > 0) | (dmax > 0))        # (k, T, 6)
+    edge = np.where(dip.any(axis=-1), np.argmax(dip, axis=-1), -1)
+    e = np.maximum(edge, 0)[..., None]
+    t = np.take_along_axis(np.take_along_axis(ts, best[..., None], axis=-1)[..., 0], e, axis=-1)[..., 0]
+    value = np.take_along_axis(np.take_along_axis(f, best[..., None], axis=-1)[..., 0], e, axis=-1)[..., 0]
+    return edge, t, value
 
 
 def _front(live: BoolArray) -> tuple[IntArray, int]:

@@ -68,6 +68,8 @@ class Geometry:
     cut_points: list[integration.CellPoints] | None = field(default=None, repr=False)  # of cut cells, cached
     facets: cut3d.Facets | None = None        # 3-D: interface facets of cut cells
     face_facets: cut3d.Facets | None = None   # 3-D: cell faces lying on the interface
+    off_surface: int = 0                # 3-D: interface edges whose mid-node stayed off LN = 0
+    folded: int = 0                     # 3-D: cut cells with a folded sub-tetrahedron
 
     @property
     def cut_cells(self) -> IntArray:
@@ -104,18 +106,20 @@ def build(mesh: LocalMesh, phi: FloatArray) -> Geometry:
     only the cutting differs, see the module documentation)."""
     facets: tuple[cut3d.Facets | None, cut3d.Facets | None] = (None, None)
     subs: cut.SubCells | cut3d.SubTets
+    quality = (0, 0)
     if mesh.dim == 3:
         g3 = geometry3d.build(mesh, phi)
         phi, info, side, subs = g3.phi, g3.readjustment, g3.cell_side, g3.subtets
         segs = esegs = _no_segments()
         facets = (g3.facets, g3.face_facets)
+        quality = (g3.off_surface, g3.folded)
     else:
         phi, info, side, segs, subs = _cut(mesh, phi)
         esegs = cut.edge_segments(mesh, phi, side)
     node_side = np.where(phi >= 0, 1, -1)
     enriched = _opposite_in_support(mesh, side, node_side)
     geo = Geometry(phi, info, side, node_side, segs, esegs, subs, enriched,
-                   np.ones(len(phi)), 0, None, *facets)
+                   np.ones(len(phi)), 0, None, *facets, *quality)
     ratio = support_ratio(mesh, geo)
     drop = enriched & (ratio < DROP_RATIO)
     geo.ratio = ratio

@@ -7,7 +7,10 @@ two; the readjustment rules (round-off to 0, fit to a vertex when an edge's zero
 within 1e-6 of its length from it, one crossing per edge by moving mid-node values);
 classification (``cut`` when a cell has strictly positive and strictly negative node
 values, an error asking for a finer mesh when a cell of one sign holds the other sign
-inside).  The cutting is :mod:`xfemcontact.xfem.cut3d`.
+inside).  Unlike 2-D, an edge the interface crosses twice keeps its values (the thin cap
+of the other side it cuts off is followed, not dropped: its cells are cut, and the
+cutting splits their tetrahedra at the cap, :func:`xfemcontact.xfem.cut3d.split_double_crossings`).
+The cutting is :mod:`xfemcontact.xfem.cut3d`.
 
 A cell face with LN = 0 at all its nodes lies on the interface: its cells are not
 cut, and the face (split into TRIA6 facets for a QUAD8 face) is an interface facet
@@ -66,8 +69,8 @@ def build(mesh: LocalMesh, phi: FloatArray) -> Geometry3D:
     """
     if mesh.dim != 3:
         raise ValueError("geometry3d is for 3-D meshes (xfemcontact.xfem.geometry for 2-D)")
-    phi, info = levelset.readjust(mesh, phi)
-    side = levelset.classify(mesh, phi)
+    phi, info = levelset.readjust(mesh, phi, lift_double_crossings=False)
+    side = levelset.classify(mesh, phi, levelset.double_crossed_cells(mesh, phi))
     cells = np.nonzero(side == 0)[0]
     subs, facets, bad, off = cut3d.cut_cells(mesh.element, phi[mesh.cell_nodes[cells]], cells)
     if bad.any():

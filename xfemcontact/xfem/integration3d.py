@@ -124,11 +124,26 @@ def facet_points(el: Element, xc: FloatArray, phi_cell: FloatArray, fac: Facets,
     J = np.einsum("kai,kpaj->kpij", xc, dN)                                      # dx/dxi
     t = J @ T.reshape(k, nf * nq, 3, 2)                                          # physical tangents
     area = np.cross(t[..., 0], t[..., 1])                                        # n_h dA_h / d(eta)
-    g = np.einsum("kpaj,kpji,ka->kpi", dN, inverses(J)[1], phi_cell)            # physical grad LN
-    gn = np.linalg.norm(g, axis=-1, keepdims=True)
-    n = np.where(gn > 0, g / np.where(gn > 0, gn, 1.0), 0.0)
+    n = _unit_gradients(dN, J, phi_cell)
     w = np.tile(we, nf)[None, :] * np.einsum("kpi,kpi->kp", area, n) * live
     return FacetPoints(fac.cells, xi, x, w, n * live[..., None])
+
+
+def level_set_normals(el: Element, xc: FloatArray, phi_cell: FloatArray, xi: FloatArray) -> FloatArray:
+    """The unit normals ``n = grad LN / |grad LN|`` ``(k, p, 3)`` (from the - side to the +
+    side; 0 where the gradient vanishes) at parent reference points ``xi (k, p, 3)`` of
+    cells with coordinates ``xc (k, nn, 3)`` (m) and LN node values ``phi_cell (k, nn)``:
+    the normals of :func:`facet_points`, at any points (the facets' nodes)."""
+    dN = el.dshape(xi)
+    return _unit_gradients(dN, np.einsum("kai,kpaj->kpij", xc, dN), phi_cell)
+
+
+def _unit_gradients(dN: FloatArray, J: FloatArray, phi_cell: FloatArray) -> FloatArray:
+    """grad LN / |grad LN| ``(k, p, 3)`` from the reference gradients ``dN (k, p, nn, 3)``
+    and the Jacobians ``J (k, p, 3, 3)`` (dx/dxi); 0 where the gradient vanishes."""
+    g = np.einsum("kpaj,kpji,ka->kpi", dN, inverses(J)[1], phi_cell)            # physical grad LN
+    gn = np.linalg.norm(g, axis=-1, keepdims=True)
+    return np.where(gn > 0, g / np.where(gn > 0, gn, 1.0), 0.0)
 
 
 #: a sub-tetrahedron face lies on a face of its parent when its nodes are this close

@@ -29,7 +29,10 @@ reported, like code_aster's XFEM_37/XFEM_63 messages):
    that cell's edges that sag towards zero are moved further, until the zero
    line leaves the edge (``push_off``; the cells are then cut again).  The
    number of such edges and the largest change of a mid-node value are
-   reported.
+   reported.  In 3-D (``lift_double_crossings=False``) an edge whose two crossings are
+   farther apart than 2e-6 of its length keeps its values: the cutting follows both
+   (:func:`xfemcontact.xfem.cut3d.split_double_crossings`); only the tangencies (two
+   crossings closer than that, or one at a vertex) are lifted.
 
 Classification of a cell, from its node values after readjustment:
 ``cut`` (strictly positive and strictly negative node values), otherwise on the
@@ -143,6 +146,7 @@ class Readjustment:
     lifted_edges: int = 0
     max_lift: float = 0.0    # largest change of a mid-node value
     pushed_off: int = 0      # lifted edges whose zero line was pushed off the edge
+    double_crossings: int = 0   # 3-D: edges crossed twice that keep their values (cut3d splits them)
 
 
 def _mesh_edges(mesh: LocalMesh) -> IntArray:
@@ -175,12 +179,13 @@ def cell_max_at_nodes(cell_nodes: IntArray, values: FloatArray) -> FloatArray:
     return out
 
 
-def readjust(mesh: LocalMesh, phi: ArrayLike,
-             push_off: BoolArray | None = None) -> tuple[FloatArray, Readjustment]:
+def readjust(mesh: LocalMesh, phi: ArrayLike, push_off: BoolArray | None = None,
+             lift_double_crossings: bool = True) -> tuple[FloatArray, Readjustment]:
     """Apply the readjustment rules; returns ``(phi, Readjustment)``.
 
     ``push_off``: optional ``(n,)`` bool, mid-nodes whose edge gets its zero line
-    pushed off (rule 3) instead of left tangent.
+    pushed off (rule 3) instead of left tangent.  ``lift_double_crossings``: False in
+    3-D, where the cutting follows edges crossed twice (rule 3 then lifts tangencies only).
 
     Decisions at nodes shared by several processes are combined so that every
     process ends with the same values.
@@ -208,8 +213,9 @@ def readjust(mesh: LocalMesh, phi: ArrayLike,
     phi[m[on_edge]] = 0.0
     # 3. one crossing per edge
     push = np.zeros(len(m), bool) if push_off is None else np.asarray(push_off)[m]
-    phi_m, lifted = _lift_double_crossings(phi[a], phi[b], phi[m], push)
+    phi_m, lifted, kept = _lift_double_crossings(phi[a], phi[b], phi[m], push, lift_double_crossings)
     owned = mesh.node_owned[m]                   # count each edge once over the processes
+    info.double_crossings = int((kept & owned).sum())
     info.lifted_edges = int((lifted & owned).sum())
     info.pushed_off = int((lifted & push & owned).sum())
     if lifted.any():
@@ -218,19 +224,26 @@ def readjust(mesh: LocalMesh, phi: ArrayLike,
     return phi, info
 
 
-def _lift_double_crossings(pa: FloatArray, pb: FloatArray, pm: FloatArray,
-                           push_off: BoolArray) -> tuple[FloatArray, BoolArray]:
+def _lift_double_crossings(pa: FloatArray, pb: FloatArray, pm: FloatArray, push_off: BoolArray,
+                           lift_all: bool = True) -> tuple[FloatArray, BoolArray, BoolArray]:
     """Mid-node values making each edge quadratic cross zero at most once.
 
     ``push_off (k,)`` bool: on these edges, if their vertices have one sign and
     the quadratic sags towards zero between them, push the zero line off the
-    edge (the quadratic becomes monotone).  Returns ``(values, lifted)``.
+    edge (the quadratic becomes monotone).  Without ``lift_all`` (3-D), edges whose
+    vertices have one sign and whose two crossings are more than ``2 FIT_TO_VERTEX`` apart
+    (in the edge's abscissa from 0 to 1) keep their values.  Returns ``(values, lifted,
+    kept)``: the new mid-node values, the edges lifted and the double crossings kept.
     """
     roots = edge_roots(pa, pb, pm)
     n_inner = np.sum(~np.isnan(roots), axis=1)
     at_vertex = (pa == 0) | (pb == 0)
     same = (pa * pb > 0)
-    bad = (same & (n_inner >= 1)) | (at_vertex & ~((pa == 0) & (pb == 0)) & (n_inner >= 1))
+    kept = np.zeros(len(pa), bool)
+    if not lift_all:
+        with np.errstate(invalid="ignore"):
+            kept = same & (n_inner == 2) & (0.5 * (roots[:, 1] - roots[:, 0]) > 2 * FIT_TO_VERTEX)
+    bad = (same & (n_inner >= 1) & ~kept) | (at_vertex & ~((pa == 0) & (pb == 0)) & (n_inner >= 1))
     # With u = |values| >= 0 on the edge, the quadratic through (ua, c, ub) has the
     # minimum value 0 (a double root) for c = (sqrt(ua) -+ sqrt(ub))^2 / 4: with
     # "-" at s* = (sqrt(ua) - sqrt(ub)) / (sqrt(ua) + sqrt(ub)) on the edge, the
@@ -242,15 +255,29 @@ def _lift_double_crossings(pa: FloatArray, pb: FloatArray, pm: FloatArray,
     lifted = bad | (push_off & (same | at_vertex) & (s * pm < off))
     c = np.where(push_off, off, 0.25 * (np.sqrt(ua) - np.sqrt(ub)) ** 2)
     c += 1e-14 * (ua + ub)                 # no round-off dip below zero at s*
-    return np.where(lifted, s * c, pm), lifted
+    lifted &= ~kept
+    return np.where(lifted, s * c, pm), lifted, kept
 
 
-def classify(mesh: LocalMesh, phi: FloatArray) -> IntArray:
-    """Side of every local cell: -1, +1, or 0 for cut cells."""
+def double_crossed_cells(mesh: LocalMesh, phi: FloatArray) -> BoolArray:
+    """Cells ``(nc,)`` with an edge whose vertices have one strict sign while its quadratic
+    crosses zero twice inside (the edges rule 3 keeps in 3-D, ``lift_double_crossings =
+    False``): cut, whatever the signs of their nodes."""
+    e = mesh.cell_nodes[:, mesh.element.edges]                                # (nc, ne, 3): a, b, mid
+    pa, pb, pm = (phi[e[..., i]].ravel() for i in range(3))
+    inner = (~np.isnan(edge_roots(pa, pb, pm))).sum(axis=1) == 2
+    return (inner & (pa * pb > 0)).reshape(e.shape[:2]).any(axis=1)
+
+
+def classify(mesh: LocalMesh, phi: FloatArray, cut: BoolArray | None = None) -> IntArray:
+    """Side of every local cell: -1, +1, or 0 for cut cells (and for the cells ``cut (nc,)``,
+    if given: :func:`double_crossed_cells`)."""
     pc = phi[mesh.cell_nodes]
     pos = (pc > 0).any(axis=1)
     neg = (pc < 0).any(axis=1)
     side = np.where(pos & neg, 0, np.where(pos, 1, -1))
+    if cut is not None:
+        side[cut] = 0
     zero = ~pos & ~neg
     if zero.any():
         c = int(np.nonzero(zero)[0][0])
