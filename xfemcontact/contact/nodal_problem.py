@@ -571,9 +571,10 @@ class NodalContactProblem(InterfaceProblem):
         C = np.zeros((k, nd, nd))
         j = np.arange(self._nf * m)
         lam_col = nh + j % m
-        # jump rows: sum over slots j of dfix_j Bt_j in the column of lam_a
-        np.add.at(C, (slice(None), slice(None, nh), lam_col),
-                  (dfix[:, :, None] * self._Bt).transpose(0, 2, 1))
+        # jump rows: the components' dfix_j Bt_j summed into the column of their dof's lam_a
+        nf = self._nf
+        C[:, :nh, nh:nh + m] = np.einsum("kcm,kcmd->kdm", dfix.reshape(k, nf, m),
+                                         self._Bt.reshape(k, nf, m, -1))
         C[:, nh + m + j, lam_col] = -self._DkT * dfix / rho_T
         return C
 
