@@ -389,9 +389,11 @@ def test_friction_loop_not_converged(tmp_path):
 
 
 def test_contact_loop_not_converged_without_friction(tmp_path):
+    # the status loop's own statuses: with the threshold fixed point (with Coulomb's law in
+    # Newton, the 2-D default, Newton changes them and the loop converges at once)
     text = edited(CONTACT, ("iter_cont_maxi = 30", "iter_cont_maxi = 1"),
                   ('frottement = "COULOMB"', 'frottement = "SANS"'))
-    line, d = _run_not_converged(tmp_path, text)
+    line, d = _run_not_converged(tmp_path, text, "-xfc_friction_newton", "TRESCA")
     assert d["loop"] == "contact"
     assert "contact statuses still changing after ITER_CONT_MAXI = 1 iterations" in line
     assert f"{d['status_changes']} point(s) changed contact status" in line

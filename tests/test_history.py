@@ -263,7 +263,7 @@ def test_restart_refused(tmp_path):
     shutil.rmtree(tmp_path / "f")             # as a killed run leaves it: checkpoints only
     p = run_cli(["run", copy, "-o", tmp_path / "f"])
     assert p.returncode == 2 and "checkpoints of an earlier run" in p.stderr
-    copy.write_text(text.replace("iter_glob_maxi = 2", "iter_glob_maxi = 3"))
+    copy.write_text(text.replace("iter_glob_maxi = 3", "iter_glob_maxi = 4"))
     p = run_cli(["run", copy, "-o", tmp_path / "f", "--restart"])
     assert p.returncode == 2 and "the case file changed since the checkpoints were written" in p.stderr
     assert p.stderr.strip().count("\n") == 0

@@ -27,7 +27,7 @@ line search SNES reads its Jacobian matrices after the callback returns.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 from mpi4py import MPI
 
@@ -65,7 +65,7 @@ class CoupledJacobian:
         self.pc_type: str | None = None          # the PC type of the symmetric solves
         self.coupled_jacobians = 0
 
-    def prepare(self, snes: PETSc.SNES, jacobian) -> None:
+    def prepare(self, snes: PETSc.SNES, jacobian: Callable[..., None]) -> None:
         """After the problem's tangent is in ``K``: give ``snes`` the matrices of this
         Newton iteration (``jacobian``: the callback, kept)."""
         C = self.problem.coupling()
