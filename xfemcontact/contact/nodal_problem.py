@@ -574,7 +574,7 @@ class NodalContactProblem(InterfaceProblem):
         # jump rows: the components' dfix_j Bt_j summed into the column of their dof's lam_a
         nf = self._nf
         C[:, :nh, nh:nh + m] = np.einsum("kcm,kcmd->kdm", dfix.reshape(k, nf, m),
-                                         self._Bt.reshape(k, nf, m, -1))
+                                         self._Bt.reshape(k, nf, m, nh))
         C[:, nh + m + j, lam_col] = -self._DkT * dfix / rho_T
         return C
 
