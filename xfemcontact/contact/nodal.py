@@ -157,10 +157,11 @@ def friction_direction(p: FloatArray, active: BoolArray, T: FloatArray, gt: Floa
     traction and the mean slip in the tangent basis; ``active``, ``bound`` ``(...)``.
     With the trial traction ``T + rho_T gt``: a sticking dof slips, in the direction of
     the trial traction, where its magnitude exceeds the bound; a slipping dof goes on
-    slipping, in the trial traction's direction (the slip direction is a status
-    updated at each Newton iteration, so that each Newton step is linear), while the
-    trial traction's component along its direction reaches the bound, and sticks
-    otherwise (no direct reversal).  Round-off bands as in :func:`friction_status`.
+    slipping, in the trial traction's direction (with the threshold fixed point the slip
+    direction is a status updated at each Newton iteration, so that each Newton step is
+    linear; with Coulomb's law in Newton a function of the iterate, see
+    ``direction_scale``), while the trial traction's component along its direction
+    reaches the bound, and sticks otherwise (no direct reversal).  Round-off bands as in :func:`friction_status`.
     ``direction_scale`` (Pa/m): the new directions are those of T + direction_scale gt
     instead (the slip direction as a function of the iterate, in Newton's tangent:
     at a solution T and gt are both along p, so either scale gives the same directions)."""

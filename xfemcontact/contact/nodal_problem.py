@@ -37,10 +37,18 @@ Newton (``-xfc_friction_newton COULOMB``, the default):
   :mod:`xfemcontact.solver.operator`).  A converged Newton solve is a solution of the
   conditions of :mod:`xfemcontact.contact.nodal` with s = LAGS_C: the status and
   threshold loops then find nothing to change;
+* 3-D: the slip direction of a slipping dof, p = q / |q| with q = T + r gt, is a function
+  of the iterate, not a status: the residual takes it at the iterate, the tangent holds
+  its derivative (:meth:`NodalContactProblem._direction_coupling`; the equilibrium then
+  holds the slipping dof's own T, so that every derivative stays in an element block),
+  and the statuses are which dofs slip.  For given statuses the problem is then smooth
+  and Newton converges quadratically; it ends when the directions move by at most
+  :data:`DIRECTION_SETTLED` as well;
 * *guard*: active sets can cycle or chatter (their Schur complement is no P-matrix:
   the Coulomb coupling, tiny or negative lumped weights, stick/slip limits).  When
   Newton meets again statuses it has had in this threshold iteration, or a dof has
-  changed its friction status :data:`CHATTER_FLIPS` times, the load step goes on with
+  changed its friction status :data:`CHATTER_FLIPS` times (3-D: statuses met again with
+  directions within :data:`DIRECTION_CYCLE` of those they had), the load step goes on with
   the threshold fixed point below (the bound frozen at mu |LAGS_C| of the iterate, the
   contact statuses left to the status loop, its own safeguards); the next load step
   starts with Coulomb's law in Newton again.
@@ -49,7 +57,8 @@ With ``-xfc_friction_newton TRESCA`` (the fixed point of earlier versions):
 
 * Newton (inner SNES): contact statuses and thresholds fixed; the friction
   statuses are updated at every Jacobian from the current iterate, a
-  semi-smooth Newton on friction;
+  semi-smooth Newton on friction (3-D: the slip direction is one of these statuses,
+  not in the tangent: the directions converge over the threshold iterations, linearly);
 * contact status loop: the contact rules after each Newton solve, and the
   switch of inadmissible dependent vertices;
 * threshold loop: s <- LAGS_C at the dofs.  Without
@@ -118,27 +127,32 @@ MAX_FLIPS = 3
 #: took 33); measured flat from 1e2 to 1e8 on the campaign's slowest cases
 STATUS_SCALE = 1e4
 #: 3-D, Coulomb's law in Newton: the slip direction of a slipping dof is that of T + DIRECTION_SCALE
-#: (E / h) gt, a function of the iterate (Pa/m, in units of E / h; the status test keeps
-#: STATUS_SCALE).  At a solution T and gt are both along p, so the scale does not change the
-#: answer; it weighs the slip against the traction in the tangent's rows of the slipping dofs,
-#: r b (I - p p^T) / (|q| rho_T) (NodalContactProblem._direction_coupling), which at the start of
-#: a slipping step (gt = 0, |q| = b) is r / rho_T: with STATUS_SCALE there (1e4) the round-off of
-#: the solves grew to 3.6e-8 Pa of tangential traction across the slip on the hysteresis turned
-#: in one step (cases of the dir3d branch), with 1e2 to 5e-10 Pa
+#: (E / h) gt, a function of the iterate (in units of E / h; the status test keeps STATUS_SCALE).
+#: At a solution T and gt are both along p, so the scale does not change the answer; it weighs
+#: the slip against the traction in the tangent's rows of the slipping dofs, r b (I - p p^T) /
+#: (|q| rho_T) (NodalContactProblem._direction_coupling), which at the start of a slipping step
+#: (gt = 0, |q| = b) is r / rho_T.  Measured on cases/validation/history_turn3d_hexa20.toml, the
+#: tangential traction across the slip (0 in closed form) after the step 2.5 -> 3: 3.6e-8 Pa with
+#: r = STATUS_SCALE E / h, 5e-10 Pa with 1e2 E / h, 1.5e-11 Pa with E / h; 2 and 3 processes
+#: against one 6.8e-10 and 1.5e-11 relative on the whole history
 DIRECTION_SCALE = 1.0
-#: 3-D: a slip direction (unit vector in the tangent plane) whose components moved by at
-#: most this is the same status and is not updated (a direction from a trial traction
-#: carries the round-off of the slips: measured up to a few 1e-11 on 3 processes)
+#: 3-D, the threshold fixed point: a slip direction (unit vector in the tangent plane) whose
+#: components moved by at most this is the same status and is not updated (a direction from a
+#: trial traction carries the round-off of the slips: measured up to a few 1e-11 on 3
+#: processes).  With Coulomb's law in Newton the direction is the iterate's, exactly
 DIRECTION_CHANGE = 3e-11
 #: 3-D, Coulomb's law in Newton: statuses met again (the same dofs slipping) are a cycle of the
 #: guard when every slip direction is within this of the earlier one (component-wise).  A turn
 #: of the slip within a load step passes through statuses met before with other directions (the
 #: hysteresis turned from +y to -(1, 1) in one step: all slipping, all sticking, all slipping
-#: again, the directions 1.85 apart), which is no cycle
+#: again, (0, 1) and -(1, 1) / sqrt 2 1.7 apart in a component), which is no cycle
 DIRECTION_CYCLE = 0.1
 #: 3-D: Newton's statuses have settled when no direction moves by more than this (above
 #: the round-off, so that Newton does not chase it; the directions it ends with are within
-#: this of their limit, and LAGS_C within about 1e-10 of its scale: tests/test_contact3d.py)
+#: this of their limit, and LAGS_C within about 1e-10 of its scale: tests/test_contact3d.py).
+#: With Coulomb's law in Newton the directions converge quadratically: a move this small
+#: leaves the iterate at round-off (the residual test alone stopped a slip case two
+#: iterations earlier, LAGS_C 4.6e-9 relative off: tests/test_contact3d.py, HEXA20, plane z = 0.45)
 DIRECTION_SETTLED = 1e-10
 
 
@@ -189,10 +203,7 @@ class NodalContactProblem(InterfaceProblem):
         self._coef_frot, self._h = scales.coef_frot, scales.h
         self._kappa = setup.case.material.E / scales.h     # Pa/m: weighs the rows of the dofs
         #: Coulomb's law in Newton (module documentation); False: the threshold fixed point
-        # (3-D: the slip direction is a status of that fixed point, not yet in the tangent, and
-        # Coulomb's law in Newton converges only linearly there: box_incline_slip_tetra10 did not
-        # converge in 20 Newton iterations; the threshold loop stays the default in 3-D)
-        self.coulomb_newton = options.get("friction_newton", "COULOMB" if self._nf == 1 else "TRESCA") == "COULOMB"
+        self.coulomb_newton = options.get("friction_newton", "COULOMB") == "COULOMB"
         self._given = (c.coef_cont, c.coef_frot)
         self._kappa_rows = None
         if self.coulomb_newton:
