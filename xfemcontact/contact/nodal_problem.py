@@ -436,7 +436,8 @@ class NodalContactProblem(InterfaceProblem):
 
     def _moved(self, new, old, tol):
         """3-D: friction slots of the dofs whose slip directions ``new``, ``old`` differ by
-        more than ``tol`` in a component (a dof that starts or stops slipping by 1)."""
+        more than ``tol`` in a component (one that starts or stops slipping by at least
+        1 / sqrt 2)."""
         return self._tile(self._fold(np.abs(new - old) > tol))
 
     # -- state at x -----------------------------------------------------------------
@@ -1016,8 +1017,10 @@ class NodalContactProblem(InterfaceProblem):
         self._accelerated = self._threshold_update()
 
     def status_changes(self, st: dict[str, Any]) -> int:
-        """Dofs (all processes) whose contact or friction status differs from ``st``."""
-        return self._count((self.chi != st["chi"]) | self._fold(self.slip != st["slip"]))
+        """Dofs (all processes) whose contact or friction status differs from ``st`` (3-D:
+        slip directions by more than DIRECTION_CHANGE, not their round-off)."""
+        moved = self.slip != st["slip"] if self._nf == 1 else self._moved(self.slip, st["slip"], DIRECTION_CHANGE)
+        return self._count((self.chi != st["chi"]) | self._fold(moved))
 
     # -- results --------------------------------------------------------------------
     def vertex_values(self, x: PETSc.Vec, thresholds_from_x: bool = False) -> VertexValues:
