@@ -14,8 +14,10 @@ import numpy as np
 import pytest
 
 from conftest import CASES, MESHES, ROOT, results, run_cli
+from xfemcontact._petsc import PETSc
 
 SLIP = CASES / "validation" / "slip_straight.toml"
+SLIP_3D = CASES / "validation" / "box_incline_slip_tetra10.toml"
 
 spec = importlib.util.spec_from_file_location("campaign", ROOT / "bench" / "campaign.py")
 campaign = importlib.util.module_from_spec(spec)
@@ -74,6 +76,73 @@ def test_coupling_is_the_derivative_of_the_residual():
     jd = Jd.getArray()
     assert np.abs(fd - jd).max() <= 1e-6 * np.abs(jd).max()
     # without the coupling the difference is of the order of the coupling itself
+    Kd = x.duplicate()
+    model.K.mult(d, Kd)
+    assert np.abs(fd - Kd.getArray()).max() > 1e-3 * np.abs(jd).max()
+
+
+@pytest.fixture
+def coulomb_newton():
+    """-xfc_friction_newton COULOMB in the options database for an in-process model."""
+    opts = PETSc.Options()
+    opts.setValue("xfc_friction_newton", "COULOMB")
+    yield
+    opts.delValue("xfc_friction_newton")
+
+
+def test_coupling_is_the_derivative_of_the_residual_in_3d(coulomb_newton):
+    """3-D (two friction components): a slipping dof's traction -mu LAGS_C q / |q|, q = T + r gt,
+    depends on its pressure, its traction and the jump dofs (through its mean slip).  At the
+    sliding state of box_incline_slip_tetra10 the Jacobian (symmetric part plus coupling) is
+    the derivative of the residual in a random direction of every interface dof (jumps,
+    LAGS_C, LAGS_F1, LAGS_F2): central differences agree to 1e-6 relative; the coupling lies
+    in the interface elements' blocks (the AIJ copy keeps its pattern, no entry on padding)."""
+    from xfemcontact.case import load_case
+    from xfemcontact.model import Model
+
+    model = Model.from_case(load_case(SLIP_3D))
+    assert model.solve() > 0
+    problem = model.problem
+    assert problem.guards == 0                        # the state of Coulomb's law in Newton
+    x = model.x
+    nh, m = problem._nh, problem._m
+    g = problem.indices
+    lo, hi = x.getOwnershipRange()
+    values = x.getArray(readonly=True)
+    rng = np.random.default_rng(5)
+    d = x.duplicate()
+    d.set(0.0)
+    # the jump dofs on the scale of the displacements, the multipliers on that of the tractions
+    for block in (g[:, :nh], g[:, nh:nh + m][problem.slot], g[:, nh + m:][problem.fslot]):
+        dofs = np.unique(block[block >= 0])
+        dofs = dofs[(dofs >= lo) & (dofs < hi)]
+        d.setValues(dofs, rng.standard_normal(len(dofs)) * np.abs(values[dofs - lo]).max())
+    d.assemble()
+    f0, f1, f2 = (x.duplicate() for _ in range(3))
+    model.residual(None, x, f0)
+    model.jacobian(None, x, model.K, model.K)
+    C = problem.coupling()
+    assert C is not None
+    live = g >= 0
+    assert not np.any(C[~(live[:, :, None] & live[:, None, :])])
+    A = PETSc.Mat()
+    model.K.convert("aij", A)
+    entries = A.getInfo()["nz_used"]
+    A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, True)
+    problem.add_matrices(A, C)
+    A.assemble()
+    assert A.getInfo()["nz_used"] == entries
+    Jd = x.duplicate()
+    A.mult(d, Jd)
+    eps = 1e-6
+    xp, xm = x.copy(), x.copy()
+    xp.axpy(eps, d)
+    xm.axpy(-eps, d)
+    model.residual(None, xp, f1)
+    model.residual(None, xm, f2)
+    fd = (f1.getArray() - f2.getArray()) / (2 * eps)
+    jd = Jd.getArray()
+    assert np.abs(fd - jd).max() <= 1e-6 * np.abs(jd).max()
     Kd = x.duplicate()
     model.K.mult(d, Kd)
     assert np.abs(fd - Kd.getArray()).max() > 1e-3 * np.abs(jd).max()

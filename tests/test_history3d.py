@@ -5,6 +5,9 @@ tangential components.
   hysteresis whose slip turns from x to y and back along the diagonal;
   history_reclose3d_tetra10.toml: an inclined interface pressed with friction sticking,
   pulled open and reclosed) against their closed forms at every instant, LAGS_F2 too;
+  history_turn3d_hexa20.toml (the hysteresis with the slip reversed from +y to -(1, 1) within
+  one step) and history_incline_growing3d_tetra10.toml (slip at the Coulomb limit under a
+  growing pressure), on which the threshold fixed point does not converge;
 * the outputs over time in 3-D: interface.csv with ``inst``, the 3-D columns and
   ``slip_path`` (the length of the vector slip increments), results.json ``steps``,
   plot_history.png;
@@ -75,6 +78,23 @@ def test_shear_hysteresis_every_instant(tmp_path):
     assert "t = 7.5 (step 15/16)" in p.stdout
 
 
+@pytest.mark.parametrize("name", ["history_turn3d_hexa20", "history_incline_growing3d_tetra10"])
+def test_slip_direction_in_newton_every_instant(tmp_path, name):
+    """Histories the threshold fixed point (the slip direction a status) does not converge on:
+    the slip turned from +y to -(1, 1) within one step, slip at the Coulomb limit under a
+    pressure growing from step to step on an inclined TETRA10 interface.  With Coulomb's law
+    in Newton (the slip direction's derivative in the tangent): every [[test]] OK, the closed
+    forms at every instant, no cycle guard, at most 40 Newton iterations in all (measured 29
+    and 12; the turning step 7)."""
+    case = VALIDATION / f"{name}.toml"
+    _, res = run_case(case, tmp_path / "out", "-q")
+    assert res["tests"] and all(t["ok"] for t in res["tests"])
+    assert res["multipliers"]["cycle_guards"] == 0 and res["iterations"]["newton"] <= 40
+    for t, err in step_errors(res, case).items():
+        assert err["LAGS_C"] < 1e-9 and err["LAGS_F1"] < 1e-10 and err.get("LAGS_F2", 0.0) < 1e-10, (t, err)
+        assert err["gap"] < 1e-15 and err["slip"] < 1e-14, (t, err)
+
+
 def test_reclose_every_instant(tmp_path):
     """An inclined TETRA10 interface pressed (friction sticking, both tangential
     components of the traction exact), pulled open (gap and slip of the rigid lift,
@@ -91,14 +111,15 @@ def test_reclose_every_instant(tmp_path):
 
 @pytest.mark.slow
 def test_step_cutting_stop_and_resume(tmp_path):
-    """With ITER_FROT_MAXI = 3 (-friction_snes_max_it) the step 7 -> 7.5 of the
-    hysteresis (the slip starting along the diagonal takes 6 threshold iterations) fails,
-    is cut three times and the run stops (exit code 3) with the 14 completed steps and
-    their checkpoints; resumed with --restart and the case's limit it ends with the
-    closed form."""
+    """With the threshold fixed point (-xfc_friction_newton TRESCA) and ITER_FROT_MAXI = 3
+    (-friction_snes_max_it) the step 7 -> 7.5 of the hysteresis (the slip starting along the
+    diagonal takes 6 threshold iterations there; Coulomb's law in Newton, the default, needs
+    no threshold iteration) fails, is cut three times and the run stops (exit code 3) with
+    the 14 completed steps and their checkpoints; resumed with --restart and the case's
+    limit it ends with the closed form."""
     case = no_plots(VALIDATION / "history_shear3d_hexa20.toml", tmp_path)
     out = tmp_path / "out"
-    p = run_cli(["run", case, "-o", out, "-friction_snes_max_it", "3"])
+    p = run_cli(["run", case, "-o", out, "-friction_snes_max_it", "3", "-xfc_friction_newton", "TRESCA"])
     assert p.returncode == 3, p.stdout + p.stderr
     assert "cut into 4 steps (level 1 of 3)" in p.stdout
     assert "after 3 cut(s) (subd_niveau = 3)" in p.stderr

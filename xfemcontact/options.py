@@ -105,7 +105,7 @@ OPTIONS = {o.name: o for o in (
            "friction statuses updated at every Newton iteration) or TRESCA (the bound of the "
            "threshold loop, contact statuses in the status loop: the fixed point of earlier "
            "versions, slower)",
-           choices=("COULOMB", "TRESCA"), default_doc="COULOMB in 2-D, TRESCA in 3-D"),
+           choices=("COULOMB", "TRESCA"), default_doc="COULOMB"),
     Option("mesh_max_mb", "float",
            "largest amount of data (MB) a mesh file may declare (node coordinates, cells, "
            "fields, after decompression); larger files are refused before they are read",

@@ -28,7 +28,7 @@ CASES = ["ssnv182a_like_hexa20", "ssnv182a_like_tetra10", "ssnv182b_like_hexa20"
          "ssnv182c_like_hexa20", "ssnv182c_like_tetra10", "ssnv186e_like_hexa20", "ssnv186e_like_tetra10",
          "ssnv186e_like_jittered_tetra10", "ssnv201a_like_hexa20", "ssnv201a_like_tetra10",
          "ssnv201b_like_hexa20", "ssnv201b_like_tetra10", "history_shear3d_hexa20",
-         "history_reclose3d_tetra10"]
+         "history_reclose3d_tetra10", "history_turn3d_hexa20", "history_incline_growing3d_tetra10"]
 FIELDS = ("LAGS_C", "LAGS_F1", "LAGS_F2", "gap", "slip")
 
 

@@ -112,13 +112,17 @@ def friction_status(slip: FloatArray, active: BoolArray, T: FloatArray, gt: Floa
 
 def terms(chi: IntArray, slip: FloatArray, active: BoolArray, lam: FloatArray, T: FloatArray,
           bound: FloatArray, D: FloatArray, rho_n: float, rho_T: float, D_T: FloatArray | None = None,
-          sliding: BoolArray | None = None) -> dict[str, FloatArray]:
+          sliding: BoolArray | None = None, carried: BoolArray | None = None) -> dict[str, FloatArray]:
     """Coefficients of the nodal equations for given statuses.
 
     The friction arguments (``slip``, ``active``, ``T``, ``bound``) may be per friction
     component (3-D: ``(k, 2 m)``, the components of the slip direction p and of T in
     the tangent basis; ``D_T`` the weights there, default ``D``; ``sliding`` which of
-    them belong to a slipping dof, default ``slip != 0``).
+    them belong to a slipping dof, default ``slip != 0``).  ``carried``: friction slots
+    whose traction in the equilibrium is the dof's own T in slip too (default none: a
+    slipping dof's is the fixed mu |s| p; with T the row D (T - mu |s| p) / rho_T = 0
+    still makes them equal at a solution, see
+    :meth:`xfemcontact.contact.nodal_problem.NodalContactProblem._direction_coupling`).
 
     Returns a dict of arrays: ``cn``, ``ct`` (Pa): the normal and tangential
     tractions of the dof in the equilibrium (they multiply d(D gn) and d(D gt));
@@ -131,12 +135,13 @@ def terms(chi: IntArray, slip: FloatArray, active: BoolArray, lam: FloatArray, T
     stick = active & ~slips
     DT = D if D_T is None else D_T
     fixed = np.where(slips, np.where(np.isfinite(bound), bound, 0.0) * slip, 0.0)
+    own = stick if carried is None else stick | (slips & carried)
     return {
         "cn": np.where(on, lam, 0.0),
         "wn": on.astype(float),
         "rl": np.where(on, 0.0, -D * lam / rho_n),
         "kl": np.where(on, 0.0, -D / rho_n),
-        "ct": np.where(stick, T, fixed),
+        "ct": np.where(own, T, fixed),
         "wt": stick.astype(float),
         "rT": np.where(stick, 0.0, DT * (T - fixed) / rho_T),
         "kT": np.where(stick, 0.0, DT / rho_T),
@@ -144,28 +149,55 @@ def terms(chi: IntArray, slip: FloatArray, active: BoolArray, lam: FloatArray, T
 
 
 def friction_direction(p: FloatArray, active: BoolArray, T: FloatArray, gt: FloatArray,
-                       bound: FloatArray, rho_T: float, tol_slip: float = 0.0) -> FloatArray:
+                       bound: FloatArray, rho_T: float, tol_slip: float = 0.0,
+                       direction_scale: float | None = None) -> FloatArray:
     """3-D: new friction statuses ``(..., 2)`` of dofs with statuses ``p (..., 2)`` (zero:
     stick; a unit vector of the tangent plane: slip in that direction), the rule of
     :func:`friction_status` for vectors.  ``T`` (Pa) and ``gt`` (m), ``(..., 2)``: the
     traction and the mean slip in the tangent basis; ``active``, ``bound`` ``(...)``.
     With the trial traction ``T + rho_T gt``: a sticking dof slips, in the direction of
     the trial traction, where its magnitude exceeds the bound; a slipping dof goes on
-    slipping, in the trial traction's direction (the slip direction is a status
-    updated at each Newton iteration, so that each Newton step is linear), while the
-    trial traction's component along its direction reaches the bound, and sticks
-    otherwise (no direct reversal).  Round-off bands as in :func:`friction_status`."""
+    slipping, in the trial traction's direction (with the threshold fixed point the slip
+    direction is a status updated at each Newton iteration, so that each Newton step is
+    linear; with Coulomb's law in Newton a function of the iterate, see
+    ``direction_scale``), while the trial traction's component along its direction
+    reaches the bound, and sticks otherwise (no direct reversal).  Round-off bands as in :func:`friction_status`.
+    ``direction_scale`` (Pa/m): the new directions are those of T + direction_scale gt
+    instead (the slip direction as a function of the iterate, in Newton's tangent:
+    at a solution T and gt are both along p, so either scale gives the same directions)."""
     trial = T + rho_T * gt
     mag = np.linalg.norm(trial, axis=-1)
     finite = np.isfinite(bound)                 # unbounded: every active dof sticks
     b = np.where(finite, bound, 0.0)
     band = b * ROUNDOFF + rho_T * tol_slip
-    unit = np.where((mag > 0)[..., None], trial / np.where(mag > 0, mag, 1.0)[..., None], 0.0)
+    unit = _unit(trial)
+    if direction_scale is not None:
+        own = _unit(T + direction_scale * gt)
+        unit = np.where(np.any(own != 0, axis=-1)[..., None], own, unit)
     starts = finite & (mag > b + band)
     goes_on = finite & (np.einsum("...c,...c->...", p, trial) >= b - band)
     sliding = np.any(p != 0, axis=-1)
     new = np.where(sliding, goes_on, starts) & active
     return np.where(new[..., None], unit, 0.0)
+
+
+def _unit(v: FloatArray) -> FloatArray:
+    """The unit vectors of ``v (..., c)`` (0 where v = 0)."""
+    mag = np.linalg.norm(v, axis=-1)
+    return np.where((mag > 0)[..., None], v / np.where(mag > 0, mag, 1.0)[..., None], 0.0)
+
+
+def direction_derivative(trial: FloatArray, bound: FloatArray) -> FloatArray:
+    """3-D: the derivative ``(..., 2, 2)`` (Pa/Pa) of the slipping traction b p, p = q / |q|,
+    with respect to the trial traction q: b (I - p p^T) / |q|, at the trial tractions
+    ``trial (..., 2)`` (Pa, in the tangent basis) and bounds ``bound (...)`` (Pa, b = mu |s|);
+    0 where q = 0.  Its eigenvalues are 0 (along p: the magnitude stays b) and b / |q|
+    (across: the direction turns), at most 1 + ROUNDOFF for a dof that slips."""
+    mag = np.linalg.norm(trial, axis=-1)
+    safe = np.where(mag > 0, mag, 1.0)
+    p = trial / safe[..., None]
+    across = np.eye(trial.shape[-1]) - p[..., :, None] * p[..., None, :]
+    return np.where((mag > 0)[..., None, None], (bound / safe)[..., None, None] * across, 0.0)
 
 
 def threshold(lam: FloatArray, scale: float) -> FloatArray:

@@ -37,10 +37,18 @@ Newton (``-xfc_friction_newton COULOMB``, the default):
   :mod:`xfemcontact.solver.operator`).  A converged Newton solve is a solution of the
   conditions of :mod:`xfemcontact.contact.nodal` with s = LAGS_C: the status and
   threshold loops then find nothing to change;
+* 3-D: the slip direction of a slipping dof, p = q / |q| with q = T + r gt, is a function
+  of the iterate, not a status: the residual takes it at the iterate, the tangent holds
+  its derivative (:meth:`NodalContactProblem._direction_coupling`; the equilibrium then
+  holds the slipping dof's own T, so that every derivative stays in an element block),
+  and the statuses are which dofs slip.  For given statuses the problem is then smooth
+  and Newton converges quadratically; it ends when the directions move by at most
+  :data:`DIRECTION_SETTLED` as well;
 * *guard*: active sets can cycle or chatter (their Schur complement is no P-matrix:
   the Coulomb coupling, tiny or negative lumped weights, stick/slip limits).  When
   Newton meets again statuses it has had in this threshold iteration, or a dof has
-  changed its friction status :data:`CHATTER_FLIPS` times, the load step goes on with
+  changed its friction status :data:`CHATTER_FLIPS` times (3-D: statuses met again with
+  directions within :data:`DIRECTION_CYCLE` of those they had), the load step goes on with
   the threshold fixed point below (the bound frozen at mu |LAGS_C| of the iterate, the
   contact statuses left to the status loop, its own safeguards); the next load step
   starts with Coulomb's law in Newton again.
@@ -49,7 +57,8 @@ With ``-xfc_friction_newton TRESCA`` (the fixed point of earlier versions):
 
 * Newton (inner SNES): contact statuses and thresholds fixed; the friction
   statuses are updated at every Jacobian from the current iterate, a
-  semi-smooth Newton on friction;
+  semi-smooth Newton on friction (3-D: the slip direction is one of these statuses,
+  not in the tangent: the directions converge over the threshold iterations, linearly);
 * contact status loop: the contact rules after each Newton solve, and the
   switch of inadmissible dependent vertices;
 * threshold loop: s <- LAGS_C at the dofs.  Without
@@ -117,13 +126,33 @@ MAX_FLIPS = 3
 #: COEF_FROT, 1e-4 times its natural scale took 126 Newton iterations where the natural one
 #: took 33); measured flat from 1e2 to 1e8 on the campaign's slowest cases
 STATUS_SCALE = 1e4
-#: 3-D: a slip direction (unit vector in the tangent plane) whose components moved by at
-#: most this is the same status and is not updated (a direction from a trial traction
-#: carries the round-off of the slips: measured up to a few 1e-11 on 3 processes)
+#: 3-D, Coulomb's law in Newton: the slip direction of a slipping dof is that of T + DIRECTION_SCALE
+#: (E / h) gt, a function of the iterate (in units of E / h; the status test keeps STATUS_SCALE).
+#: At a solution T and gt are both along p, so the scale does not change the answer; it weighs
+#: the slip against the traction in the tangent's rows of the slipping dofs, r b (I - p p^T) /
+#: (|q| rho_T) (NodalContactProblem._direction_coupling), which at the start of a slipping step
+#: (gt = 0, |q| = b) is r / rho_T.  Measured on cases/validation/history_turn3d_hexa20.toml, the
+#: tangential traction across the slip (0 in closed form) after the step 2.5 -> 3: 3.6e-8 Pa with
+#: r = STATUS_SCALE E / h, 5e-10 Pa with 1e2 E / h, 1.5e-11 Pa with E / h; 2 and 3 processes
+#: against one 6.8e-10 and 1.5e-11 relative on the whole history
+DIRECTION_SCALE = 1.0
+#: 3-D, the threshold fixed point: a slip direction (unit vector in the tangent plane) whose
+#: components moved by at most this is the same status and is not updated (a direction from a
+#: trial traction carries the round-off of the slips: measured up to a few 1e-11 on 3
+#: processes).  With Coulomb's law in Newton the direction is the iterate's, exactly
 DIRECTION_CHANGE = 3e-11
+#: 3-D, Coulomb's law in Newton: statuses met again (the same dofs slipping) are a cycle of the
+#: guard when every slip direction is within this of the earlier one (component-wise).  A turn
+#: of the slip within a load step passes through statuses met before with other directions (the
+#: hysteresis turned from +y to -(1, 1) in one step: all slipping, all sticking, all slipping
+#: again, (0, 1) and -(1, 1) / sqrt 2 1.7 apart in a component), which is no cycle
+DIRECTION_CYCLE = 0.1
 #: 3-D: Newton's statuses have settled when no direction moves by more than this (above
 #: the round-off, so that Newton does not chase it; the directions it ends with are within
-#: this of their limit, and LAGS_C within about 1e-10 of its scale: tests/test_contact3d.py)
+#: this of their limit, and LAGS_C within about 1e-10 of its scale: tests/test_contact3d.py).
+#: With Coulomb's law in Newton the directions converge quadratically: a move this small
+#: leaves the iterate at round-off (the residual test alone stopped the slip cases of
+#: tests/test_contact3d.py one iteration earlier, LAGS_C up to 1.3e-10 relative off, 1.6e-13 with it)
 DIRECTION_SETTLED = 1e-10
 
 
@@ -174,10 +203,7 @@ class NodalContactProblem(InterfaceProblem):
         self._coef_frot, self._h = scales.coef_frot, scales.h
         self._kappa = setup.case.material.E / scales.h     # Pa/m: weighs the rows of the dofs
         #: Coulomb's law in Newton (module documentation); False: the threshold fixed point
-        # (3-D: the slip direction is a status of that fixed point, not yet in the tangent, and
-        # Coulomb's law in Newton converges only linearly there: box_incline_slip_tetra10 did not
-        # converge in 20 Newton iterations; the threshold loop stays the default in 3-D)
-        self.coulomb_newton = options.get("friction_newton", "COULOMB" if self._nf == 1 else "TRESCA") == "COULOMB"
+        self.coulomb_newton = options.get("friction_newton", "COULOMB") == "COULOMB"
         self._given = (c.coef_cont, c.coef_frot)
         self._kappa_rows = None
         if self.coulomb_newton:
@@ -218,7 +244,9 @@ class NodalContactProblem(InterfaceProblem):
         self._dof_id = ids                       # input id of each slot's dof (partition-free order)
         self._mark = ((ids * 2654435761) % 4294967296) / 4294967296.0 + 0.5
         self._seen_contact, self._seen_slip = set(), set()
-        self._seen_states: set[tuple[float, float]] = set()     # Newton's (contact, friction) statuses
+        # Newton's (contact, friction) statuses in this threshold iteration (3-D: with the slip
+        # directions they had, see _cycled)
+        self._seen_states: dict[tuple[float, float], list[FloatArray]] = {}
         self._coupling: FloatArray | None = None
         self._flips = np.zeros(fshape, np.int64)   # friction status changes of each slot in this threshold iteration
         self._accelerated = self._threshold_update()
@@ -232,6 +260,13 @@ class NodalContactProblem(InterfaceProblem):
         start, not after the cycle guard)."""
         return self.coulomb_newton and not (self.guarded or self._guard_now or self.unbounded
                                             or self.free_start)
+
+    @property
+    def _direction_in_newton(self) -> bool:
+        """3-D with Coulomb's law in Newton: the slip direction p = q / |q| of a slipping dof
+        is a function of the iterate whose derivative is in the tangent
+        (:meth:`_direction_coupling`), not a status; the statuses are which dofs slip."""
+        return self._nf > 1 and self._in_newton
 
     def _threshold_update(self):
         return ThresholdUpdate(
@@ -392,9 +427,17 @@ class NodalContactProblem(InterfaceProblem):
     def _changed(self, new, old, tol=DIRECTION_CHANGE):
         """Where statuses differ: contact and 2-D friction statuses exactly; 3-D slip
         directions (friction slots) by more than ``tol`` in a component (every component
-        of such a dof)."""
+        of such a dof; with the direction in Newton, where a dof starts or stops slipping)."""
         if new.shape[1] == self._m or self._nf == 1:
             return new != old
+        if self._direction_in_newton:         # the directions are no statuses: which dofs slip
+            return self._tile(self._fold(new != 0) != self._fold(old != 0))
+        return self._moved(new, old, tol)
+
+    def _moved(self, new, old, tol):
+        """3-D: friction slots of the dofs whose slip directions ``new``, ``old`` differ by
+        more than ``tol`` in a component (one that starts or stops slipping by at least
+        1 / sqrt 2)."""
         return self._tile(self._fold(np.abs(new - old) > tol))
 
     # -- state at x -----------------------------------------------------------------
@@ -420,7 +463,8 @@ class NodalContactProblem(InterfaceProblem):
 
     def _friction_statuses(self, x):
         """The friction statuses the rules give at ``x`` from the committed ones, and
-        the values they come from: ``(slip, h, lam, T, active, bound)``."""
+        the values they come from: ``(slip, h, lam, T, gt, active, bound)`` (``gt`` the
+        step's mean slips, m)."""
         ve, h, lam, T = self._values(x)
         if self._in_newton and self.friction:
             # Coulomb in Newton: the bound is mu |LAGS_C| of this iterate (and s follows
@@ -442,16 +486,20 @@ class NodalContactProblem(InterfaceProblem):
         else:
             status = self._components(nodal.friction_direction(
                 self._split(self.slip), active[:, :self._m], self._split(T), self._split(gt),
-                bound[:, :self._m], STATUS_SCALE * self._kappa, nodal.ROUNDOFF * scale))
+                bound[:, :self._m], STATUS_SCALE * self._kappa, nodal.ROUNDOFF * scale,
+                DIRECTION_SCALE * self._kappa if self._direction_in_newton else None))
         if not self._in_newton:
             # (with Coulomb in Newton a held status would end in a state that is no
             # solution; the cycle guard handles chattering there)
             status = np.where(self._flips >= MAX_FLIPS, self.slip, status)
-        if self._nf > 1:          # a direction that moved by round-off only is the same status
+        if self._nf > 1 and not self._direction_in_newton:
+            # a direction that moved by round-off only is the same status (in Newton the
+            # direction is the trial traction's at x, exactly: the residual is then the
+            # function the tangent differentiates)
             status = np.where(self._changed(status, self.slip), status, self.slip)
         if not self._in_newton:          # (with Coulomb in Newton: the cycle guard of _terms)
             status = self._no_cycle(self.slip, status, self._seen_slip)
-        return status, h, lam, T, active, bound
+        return status, h, lam, T, gt, active, bound
 
     def _mean_slip(self, h, shape):
         """Mean slips ``gt (k, m)`` (m) at the dofs of the jump dofs ``h``."""
@@ -468,7 +516,7 @@ class NodalContactProblem(InterfaceProblem):
 
     def _statuses(self, x, commit):
         """The contact and friction statuses for the terms at ``x`` and the values they
-        come from: ``(chi, slip, h, lam, T, active, bound)``.  With Coulomb's law in
+        come from: ``(chi, slip, h, lam, T, gt, active, bound)``.  With Coulomb's law in
         Newton the contact statuses are those of the rules at ``x`` too, unless Newton
         has had them before in this threshold iteration (the cycle guard: the committed
         contact statuses and the bound frozen from here on, for good with ``commit``).
@@ -477,8 +525,8 @@ class NodalContactProblem(InterfaceProblem):
         if self._in_newton:
             self.chi = self._contact_at(x)
         try:
-            slip, h, lam, T, active, bound = self._friction_statuses(x)
-            if self._in_newton and (self._fingerprint(self.chi), self._fingerprint(slip)) in self._seen_states:
+            slip, h, lam, T, gt, active, bound = self._friction_statuses(x)
+            if self._in_newton and self._cycled(committed, slip):
                 self.chi = committed
                 if commit:
                     self.guarded = True
@@ -486,25 +534,59 @@ class NodalContactProblem(InterfaceProblem):
                     self._flips[:] = 0
                 self._guard_now = True
                 try:
-                    slip, h, lam, T, active, bound = self._friction_statuses(x)
+                    slip, h, lam, T, gt, active, bound = self._friction_statuses(x)
                 finally:
                     self._guard_now = False
             chi = self.chi
         finally:
             if not commit:
                 self.chi = committed
-        return chi, slip, h, lam, T, active, bound
+        return chi, slip, h, lam, T, gt, active, bound
+
+    def _state_key(self, chi, slip):
+        """Newton's statuses ``chi``, ``slip`` as a key of the cycle guard (3-D: which dofs
+        slip, the directions being functions of the iterate)."""
+        if self._nf > 1:
+            slip = np.where(self._sliding(slip), 1.0, 0.0)
+        return self._fingerprint(chi), self._fingerprint(slip)
+
+    def _remember_state(self, chi, slip):
+        """Add Newton's statuses ``chi``, ``slip`` to those met in this threshold iteration."""
+        seen = self._seen_states.setdefault(self._state_key(chi, slip), [])
+        if self._nf > 1:
+            seen.append(np.where(self._sliding(slip), slip, 0.0))
+
+    def _cycled(self, committed, slip):
+        """Whether Newton meets again, with ``self.chi`` and ``slip``, statuses it has had in
+        this threshold iteration (the committed ones ``committed``, ``self.slip`` are added
+        to them at each tangent).  In 3-D staying in the committed statuses is no cycle:
+        with the direction in the tangent, Newton takes several iterations in the same
+        statuses (in 2-D, where the problem is linear for given statuses, that is a
+        converged Newton and the rule is kept as it was); and statuses met before are a
+        cycle only with the directions they had then, to DIRECTION_CYCLE."""
+        key = self._state_key(self.chi, slip)
+        if key not in self._seen_states:
+            return False
+        if self._nf == 1:
+            return True
+        if key == self._state_key(committed, self.slip):
+            return False
+        now = np.where(self._sliding(slip), slip, 0.0)
+        return any(self._max(now - before) <= DIRECTION_CYCLE for before in self._seen_states[key])
 
     def _terms(self, x, commit=False):
-        """Everything the residual and the tangent need at ``x``: ``(h, terms, slipping)``
-        (``slipping``: the friction slots whose bound -mu LAGS_C is in Newton, None
-        without).  With ``commit`` the statuses found at ``x`` become the committed ones."""
+        """Everything the residual and the tangent need at ``x``: ``(h, terms, slipping,
+        trial, bound)`` (``slipping``: the friction slots whose bound -mu LAGS_C is in
+        Newton, None without; ``trial``: the tractions T + r gt whose directions are the
+        slip directions in Newton (3-D; r = DIRECTION_SCALE E/h), Pa, and ``bound``
+        the bounds mu |s| of the friction slots).  With ``commit`` the statuses found at
+        ``x`` become the committed ones."""
         committed = self.chi
         in_newton = self._in_newton
-        chi, slip, h, lam, T, active, bound = self._statuses(x, commit)
+        chi, slip, h, lam, T, gt, active, bound = self._statuses(x, commit)
         if commit:
             if in_newton:
-                self._seen_states.add((self._fingerprint(committed), self._fingerprint(self.slip)))
+                self._remember_state(committed, self.slip)
             self._seen_slip.add(self._fingerprint(self.slip))
             self._flips += self._changed(slip, self.slip)
             self.slip = slip
@@ -516,12 +598,15 @@ class NodalContactProblem(InterfaceProblem):
         slipping = None
         if self._in_newton and self.friction:
             slipping = active & self._sliding(slip) & (bound > 0)
-        return h, nodal.terms(chi, slip, active, lam, T, bound, self._Dk, self.rho_n, rho_T, self._DkT,
-                              None if self._nf == 1 else self._sliding(slip)), slipping
+        # 3-D in Newton: the equilibrium holds a slipping dof's own T (_direction_coupling)
+        carried = slipping if self._direction_in_newton else None
+        t = nodal.terms(chi, slip, active, lam, T, bound, self._Dk, self.rho_n, rho_T, self._DkT,
+                        None if self._nf == 1 else self._sliding(slip), carried)
+        return h, t, slipping, T + DIRECTION_SCALE * self._kappa * gt, bound
 
     # -- Newton ---------------------------------------------------------------------
     def add_residual(self, x: PETSc.Vec, f: PETSc.Vec) -> None:
-        h, t, _ = self._terms(x)
+        h, t = self._terms(x)[:2]
         Bn, Bt = self._Bn, self._Bt
         Rh = np.einsum("km,kmd->kd", t["cn"], Bn) + np.einsum("km,kmd->kd", t["ct"], Bt)
         Rl = t["wn"] * np.einsum("kmd,kd->km", Bn, h) + t["rl"]
@@ -537,7 +622,7 @@ class NodalContactProblem(InterfaceProblem):
         """Element tangents ``(k, nd, nd)``: the symmetric part of the tangent (with
         Coulomb's law in Newton, the coupling of the slipping dofs' traction to their
         pressure is :meth:`coupling`); commits the statuses of ``x``."""
-        h, t, slipping = self._terms(x, commit=True)
+        h, t, slipping, trial, bound = self._terms(x, commit=True)
         Bt = self._Bt
         k, nd = self.indices.shape
         nh, m = self._nh, self._m
@@ -552,7 +637,8 @@ class NodalContactProblem(InterfaceProblem):
         K[:, nh + i, nh + i] = t["kl"]
         j = np.arange(self._nf * m)
         K[:, nh + m + j, nh + m + j] = t["kT"]
-        self._coupling = self._coupling_terms(slipping)
+        self._coupling = (self._direction_coupling(slipping, trial, bound) if self._direction_in_newton
+                          else self._coupling_terms(slipping))
         return K
 
     def _coupling_terms(self, slipping):
@@ -576,6 +662,53 @@ class NodalContactProblem(InterfaceProblem):
         C[:, :nh, nh:nh + m] = np.einsum("kcm,kcmd->kdm", dfix.reshape(k, nf, m),
                                          self._Bt.reshape(k, nf, m, nh))
         C[:, nh + m + j, lam_col] = -self._DkT * dfix / rho_T
+        return C
+
+    def _direction_coupling(self, slipping, trial, bound):
+        """3-D: element matrices ``(k, nd, nd)`` of the non-symmetric part of the tangent,
+        the derivative of the slipping dofs' terms (None: nothing slips with its bound in
+        Newton).  ``slipping`` ``(k, nf m)``, ``trial`` (Pa) and ``bound`` (Pa): the friction
+        slots of :meth:`_terms`.
+
+        A slipping dof a carries f = b p (Pa, in the tangent basis), b = -mu lam_a its bound,
+        p = q / |q|, q = T_a + r gt_a (r = DIRECTION_SCALE E/h, gt_a =
+        sum_e Bt_e (h_e - h0_e) / D_a its mean slip in the step: the slip operators of every
+        element around the dof).  Its rows are R_a = D_a (T_a - f) / rho_T, and the
+        equilibrium holds T_a itself (Bt_j T_j in the rows of the jump dofs: ``carried`` of
+        :func:`nodal.terms`), so that every derivative stays in an element's block: with f in
+        the equilibrium, df / dgt_a would couple the jump dofs of elements that share only
+        the dof.  At a solution T_a = f, as with f in the equilibrium; both give the same
+        Newton step (substitute the linearised row, df = dT_a + T_a - f, into the
+        equilibrium's).  With A = df/dq = b (I - p p^T) / |q| (:func:`nodal.direction_derivative`),
+        df = A dT_a - mu p dlam_a + r A dgt_a, hence in element e, for the components c, c' of
+        the slot j of dof a (D^e_a the element's share of D_a, the symmetric tangent holding
+        D^e_a / rho_T on the diagonal of the slipping rows):
+
+        * rows of the jump dofs, column T_jc: Bt^e_jc;
+        * row T_jc, column T_jc': -D^e_a A_cc' / rho_T;
+        * row T_jc, column lam_a: D^e_a mu p_c / rho_T;
+        * row T_jc, jump dofs of e: -r sum_c' A_cc' Bt^e_jc' / rho_T (times D_a over the mean's
+          divisor, 1 where D_a != 0), whose sum over the elements is -D_a r A dgt_a / rho_T.
+        """
+        if slipping is None or not self._mpi.allreduce(bool(slipping.any()), op=MPI.LOR):
+            return None
+        nh, m, nf = self._nh, self._m, self._nf
+        k, nd = self.indices.shape
+        rho_T = self.rho_T if self.rho_T is not None else self.rho_n
+        on = self._fold(slipping)                                                # (k, m)
+        b = np.where(on, bound[:, :m], 0.0)
+        A = nodal.direction_derivative(self._split(trial), b) * on[:, :, None, None]   # (k, m, nf, nf)
+        p = np.where(on[:, :, None], self._split(self.slip), 0.0)                 # (k, m, nf)
+        Bt = self._Bt.reshape(k, nf, m, nh)                                      # (k, c, m, 2nn)
+        C = np.zeros((k, nd, nd))
+        C[:, :nh, nh + m:] = (self._Bt * slipping[:, :, None]).transpose(0, 2, 1)
+        j, c, c2 = np.meshgrid(np.arange(m), np.arange(nf), np.arange(nf), indexing="ij")   # (m, nf, nf)
+        share = self._Dk / rho_T                                                 # (k, m)
+        C[:, nh + m + c * m + j, nh + m + c2 * m + j] = -share[:, :, None, None] * A
+        C[:, nh + m + c[..., 0] * m + j[..., 0], nh + j[..., 0]] = share[:, :, None] * self.mu * p
+        mean = self._D / self._mean_divisor()                                    # D_a / divisor: 1 or 0
+        rows = np.einsum("kmce,kemd->kcmd", A, Bt).reshape(k, nf * m, nh)
+        C[:, nh + m:, :nh] = -(DIRECTION_SCALE * self._kappa / rho_T) * self._tile(mean)[:, :, None] * rows
         return C
 
     def coupling(self) -> FloatArray | None:
@@ -622,7 +755,10 @@ class NodalContactProblem(InterfaceProblem):
         whose statuses are still changing can have a residual far below the loads'
         (a stick row violated by a whole slip increment weighs D |slip|), so Newton's
         convergence also asks for settled statuses (a semi-smooth Newton converges when
-        its active set stops changing)."""
+        its active set stops changing).  In 3-D, also asks for slip directions within
+        DIRECTION_SETTLED of its Jacobian's (with the direction in Newton, a step in the
+        directions that small ends a quadratic convergence: the iterate is then accurate
+        to round-off, where the residual test alone may stop one iteration earlier)."""
         contact = self._in_newton and bool(np.any((self._contact_at(x) != self.chi) & self.slot))
         if not self.friction:
             return not self._mpi.allreduce(contact, op=MPI.LOR)
@@ -633,7 +769,7 @@ class NodalContactProblem(InterfaceProblem):
             slip = self._friction_statuses(x)[0]
         finally:
             self.chi = committed
-        changed = self._changed(slip, self.slip, DIRECTION_SETTLED)
+        changed = self._changed(slip, self.slip) if self._nf == 1 else self._moved(slip, self.slip, DIRECTION_SETTLED)
         return not self._mpi.allreduce(contact or bool(np.any(changed & self.fslot)), op=MPI.LOR)
 
     def add_matrices(self, J: PETSc.Mat, K: FloatArray) -> None:
@@ -881,8 +1017,10 @@ class NodalContactProblem(InterfaceProblem):
         self._accelerated = self._threshold_update()
 
     def status_changes(self, st: dict[str, Any]) -> int:
-        """Dofs (all processes) whose contact or friction status differs from ``st``."""
-        return self._count((self.chi != st["chi"]) | self._fold(self.slip != st["slip"]))
+        """Dofs (all processes) whose contact or friction status differs from ``st`` (3-D:
+        slip directions by more than DIRECTION_CHANGE, not their round-off)."""
+        moved = self.slip != st["slip"] if self._nf == 1 else self._moved(self.slip, st["slip"], DIRECTION_CHANGE)
+        return self._count((self.chi != st["chi"]) | self._fold(moved))
 
     # -- results --------------------------------------------------------------------
     def vertex_values(self, x: PETSc.Vec, thresholds_from_x: bool = False) -> VertexValues:
