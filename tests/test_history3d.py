@@ -11,6 +11,9 @@ tangential components.
 * the outputs over time in 3-D: interface.csv with ``inst``, the 3-D columns and
   ``slip_path`` (the length of the vector slip increments), results.json ``steps``,
   plot_history.png;
+* the interface surface over time (interface.xdmf + interface.h5, a temporal collection
+  beside fields.xdmf): every step's fields at the facets' nodes, those of that step
+  (closed forms, interface.csv), the same on 2 processes and after a restart;
 * step cutting, a stopped run resumed with other options, a run killed by SIGKILL
   resumed with ``--restart``;
 * 2, 3 and 4 processes reproduce one at every instant to 1e-10.
@@ -48,6 +51,89 @@ def no_plots(case, tmp_path):
     path = tmp_path / case.name
     path.write_text(case.read_text().replace("plots = true", "plots = false"))
     return path
+
+
+def with_fields(case, tmp_path, formats='["xdmf", "vtu"]'):
+    """A copy of ``case`` (no mesh file: a box) writing the field files ``formats``, no plots."""
+    path = tmp_path / case.name
+    text = case.read_text().replace("plots = true", "plots = false")
+    assert "formats = []" in text
+    path.write_text(text.replace("formats = []", f"formats = {formats}"))
+    return path
+
+
+def surface_series(out):
+    """The interface surface over time of the output folder ``out`` (meshio's reader of
+    interface.xdmf): points ``(n, 3)``, the triangle6 connectivity, and per step
+    ``(t, point_data, cell_data)``."""
+    import meshio
+
+    reader = meshio.xdmf.TimeSeriesReader(str(out / "interface.xdmf"))
+    points, cells = reader.read_points_cells()
+    assert [c.type for c in cells] == ["triangle6"]
+    return points, cells[0].data, [reader.read_data(k) for k in range(reader.num_steps)]
+
+
+def test_interface_surface_every_step(tmp_path):
+    """With [instants] in 3-D the interface surface is written at every step
+    (interface.xdmf + interface.h5, a temporal collection as fields.xdmf, read back by
+    meshio and h5py): each step holds every field of the one-step interface.xdmf, and
+    they are that step's: LAGS_C, LAGS_F1, LAGS_F2, gap and slip at the facets' nodes in
+    closed form at that instant, LAGS_C and gap within the range of that step's
+    interface.csv rows; interface.vtu is the last step."""
+    import h5py
+    import meshio
+
+    from xfemcontact.contact.problem import SURFACE_FIELDS
+
+    case = with_fields(VALIDATION / "history_reclose3d_tetra10.toml", tmp_path)
+    out = tmp_path / "out"
+    _, res = run_case(case, out, "-q")
+    assert {"fields.xdmf", "fields.h5", "interface.xdmf", "interface.h5", "interface.vtu"} <= \
+        {p.name for p in out.iterdir()}
+    points, conn, frames = surface_series(out)
+    insts = [s["inst"] for s in res["steps"]]
+    assert [t for t, _, _ in frames] == insts
+    expected = set(SURFACE_FIELDS) | {"DX", "DY", "DZ", "displacement", "normal", "t1", "t2"}
+    ref = load_case(case)
+    table = interface_csv.read(out / "interface.csv")
+    x, y, z = points.T
+    for t, pd, cd in frames:
+        assert set(pd) == expected and set(cd) == {"cell"}, t
+        assert all(len(v) == len(points) for v in pd.values()) and len(cd["cell"][0]) == len(conn)
+        formulas = ref.reference_at(t)
+        for f in FIELDS:
+            err = np.abs(pd[f] - np.broadcast_to(formulas[f](x=x, y=y, z=z), x.shape)).max()
+            assert err < (1e-9 if f.startswith("LAGS") else 1e-15), (t, f, err)
+        rows = table["inst"] == t
+        for f, tol in (("LAGS_C", 1e-9), ("gap", 1e-15)):
+            lo, hi = table[f][rows].min(), table[f][rows].max()
+            assert lo - tol <= pd[f].min() and pd[f].max() <= hi + tol, (t, f)
+    assert not any(frames[insts.index(2.0)][1]["contact"]) and all(frames[-1][1]["contact"])
+    with h5py.File(out / "interface.h5") as h5:       # written once: the mesh, then each step's
+        assert len(h5) == 2 + len(insts) * (len(expected) + 1)
+    last = meshio.read(out / "interface.vtu")
+    assert np.array_equal(last.points, points)
+    for f in expected:
+        assert np.array_equal(last.point_data[f], frames[-1][1][f]), f
+
+
+@pytest.mark.mpi
+def test_interface_surface_two_processes(tmp_path):
+    """``mpirun -n 2``: the interface surface over time is the one of one process (the same
+    points and facets; every step's fields within 1e-10, LAGS_C relative to its largest)."""
+    case = with_fields(VALIDATION / "history_reclose3d_tetra10.toml", tmp_path, '["xdmf"]')
+    run_case(case, tmp_path / "1", "-q")
+    run_case(case, tmp_path / "2", "-q", np_=2)
+    p1, c1, one = surface_series(tmp_path / "1")
+    p2, c2, two = surface_series(tmp_path / "2")
+    assert np.array_equal(p1, p2) and np.array_equal(c1, c2) and len(one) == len(two) == 12
+    scale = max(np.abs(pd["LAGS_C"]).max() for _, pd, _ in one)
+    for (t1, a, ca), (t2, b, cb) in zip(one, two):
+        assert t1 == t2 and set(a) == set(b) and np.array_equal(ca["cell"][0], cb["cell"][0])
+        for f in a:
+            d = np.abs(a[f] - b[f]).max()
+            assert d <= 1e-10 * (scale if f in ("LAGS_C", "T") else 1.0), (t1, f, d)
 
 
 def test_shear_hysteresis_every_instant(tmp_path):
@@ -136,8 +222,11 @@ def test_step_cutting_stop_and_resume(tmp_path):
 
 def test_restart_after_sigkill(tmp_path):
     """A 3-D run killed (SIGKILL) after 5 of its 12 steps resumes with --restart and writes
-    the interface.csv of the uninterrupted run byte for byte (one process)."""
-    case = VALIDATION / "history_reclose3d_tetra10.toml"
+    the interface.csv, fields.xdmf and interface.xdmf (every step's fields in fields.h5 and
+    interface.h5) of the uninterrupted run byte for byte (one process)."""
+    import h5py
+
+    case = with_fields(VALIDATION / "history_reclose3d_tetra10.toml", tmp_path, '["xdmf"]')
     _, full = run_case(case, tmp_path / "full", "-q")
     cmd = [sys.executable, "-m", "xfemcontact", "run", case, "-o", tmp_path / "cut", "-q"]
     done = _kill_after(cmd, tmp_path / "cut.checkpoints" / "manifest.json", 5)
@@ -146,6 +235,13 @@ def test_restart_after_sigkill(tmp_path):
     assert f"resumed after step {done}" in p.stdout
     assert (tmp_path / "full" / "interface.csv").read_text() == (tmp_path / "cut" / "interface.csv").read_text()
     assert [s["inst"] for s in resumed["steps"]] == [s["inst"] for s in full["steps"]]
+    for name in ("fields", "interface"):
+        a, b = tmp_path / "full" / name, tmp_path / "cut" / name
+        assert a.with_suffix(".xdmf").read_text() == b.with_suffix(".xdmf").read_text(), name
+        with h5py.File(a.with_suffix(".h5")) as ha, h5py.File(b.with_suffix(".h5")) as hb:
+            assert sorted(ha) == sorted(hb) and len(ha) > 12, name
+            for key in ha:
+                assert np.array_equal(ha[key][()], hb[key][()]), (name, key)
 
 
 @pytest.mark.mpi

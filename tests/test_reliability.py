@@ -12,6 +12,7 @@ a few run the command line end to end.
 import base64
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -568,6 +569,115 @@ def test_resolved_interfaces_are_silent(tmp_path):
         pre = checked(tmp_path, edited(CONTACT, (CIRCLE, level_set)))
         assert pre.warnings == []
         assert pre.resolution["offset_h"] < 1e-9
+
+
+# the same check in 3-D: one code (preflight.interface_resolution), a 7 x 7 x 7 grid of HEXA20
+# cells, 84 points on TETRA10
+BOX3D = """\
+title = "probe 3-D"
+[mesh]
+box = {nx = 2, ny = 2, nz = 2, x = [0, 1], y = [0, 1], z = [0, 1], cell = "HEXA20"}
+[material]
+E = 1.0e6
+nu = 0.3
+model = "3D"
+[[dirichlet]]
+group = "bottom"
+DX = 0.0
+DY = 0.0
+DZ = 0.0
+[[dirichlet]]
+group = "top"
+DZ = -1.0e-6
+[interface]
+level_set = "sqrt((x - 0.5)**2 + (y - 0.5)**2 + (z - 0.5)**2) - 0.3"
+law = "bonded"
+[output]
+plots = false
+formats = []
+"""
+#: the box of BOX3D on TETRA10 (6 a hexahedron), a smaller sphere off the vertices
+TETRA3D = (('cell = "HEXA20"', 'cell = "TETRA10"'),
+           ("(x - 0.5)**2 + (y - 0.5)**2 + (z - 0.5)**2) - 0.3", "(x - 0.3)**2 + (y - 0.42)**2 + (z - 0.7)**2) - 0.12"))
+SPHERE_WARNING = ("interface.level_set: the interface the mesh represents is up to {:.2g} h ({:.3g} m) from "
+                  "the zero of the level set, near ({:.4g}, {:.4g}, {:.4g}); refine the mesh there for a "
+                  "closer interface")
+
+
+@pytest.mark.parametrize("edits", [(), TETRA3D], ids=["HEXA20", "TETRA10"])
+def test_sphere_on_a_coarse_box_warned_3d(tmp_path, edits):
+    """A sphere (its distance function, which P2 does not hold) on a coarse 3-D box: the
+    interface the mesh represents is 0.076 h (HEXA20) and 0.14 h (TETRA10, R = 0.12 m) off
+    on 2 x 2 x 2 cells, a warning, as in 2-D; with max_offset below that the case is
+    refused, one line."""
+    from xfemcontact.errors import GeometryError
+
+    text = edited(BOX3D, *edits)
+    pre = checked(tmp_path, text)
+    r = pre.resolution
+    assert r["seen"] and not r["refused"] and len(r["at"]) == 3 and r["cell"] is not None
+    assert 0.07 < r["offset_h"] < 0.15 and r["sampled_cells"] > 0
+    assert pre.warnings == [f"{tmp_path}/case.toml: " + SPHERE_WARNING.format(r["offset_h"], r["offset_m"], *r["at"])]
+    with pytest.raises(GeometryError) as info:
+        checked(tmp_path, edited(text, ('law = "bonded"', 'law = "bonded"\nmax_offset = 0.05')))
+    assert str(info.value).endswith("the level set varies faster than the cells can follow: refine the mesh "
+                                    f"there, or accept it with interface.max_offset = {r['offset_h'] * 1.01:.2g} "
+                                    "(now 0.05)")
+
+
+def test_sphere_on_a_coarse_box_run_3d(tmp_path):
+    """From the command line: the warning on stderr, the case solved (exit 0), results.json
+    ``interface_resolution`` with its 3-D point."""
+    case = write_case(tmp_path, BOX3D)
+    proc = run_cli(["run", case, "-o", tmp_path / "out", "-q"], timeout=TIMEOUT)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert [line[:60] for line in proc.stderr.splitlines()] == \
+        [f"warning: {case}: interface.level_set: the interface the mesh represents"[:60]]
+    r = results(tmp_path / "out")["interface_resolution"]
+    assert 0.06 < r["offset_h"] < 0.1 and len(r["at"]) == 3
+
+
+@pytest.mark.mpi
+def test_under_resolved_level_set_refused_3d(tmp_path):
+    """sin(20 x) across 10 HEXA20 cells (the 2-D probe in 3-D): refused, exit 2, one line
+    (1.2 h off, as in 2-D), on one process and on two (the check runs on rank 0, every
+    process raises it; mpirun adds its banner), no output folder."""
+    text = edited(BOX3D, ("nx = 2, ny = 2, nz = 2, x = [0, 1]", "nx = 10, ny = 2, nz = 2, x = [0, 10]"),
+                  ("sqrt((x - 0.5)**2 + (y - 0.5)**2 + (z - 0.5)**2) - 0.3", "sin(20*x) + 0*y"))
+    case = write_case(tmp_path, text)
+    for np_ in (None, 2):
+        proc = run_cli(["run", case, "-o", tmp_path / "out"], np=np_, timeout=TIMEOUT)
+        assert proc.returncode == 2, proc.stdout + proc.stderr
+        errors = [line for line in proc.stderr.splitlines() if line.startswith("error: ")]  # and mpirun's banner
+        assert len(errors) == 1 and "Traceback" not in proc.stderr, proc.stderr
+        assert errors[0].startswith(f"error: {case}: interface.level_set: the interface the mesh represents is "
+                                         "up to 1.2 h (1.52 m) from the zero of the level set, near (1.333, 0, 0.08333); ")
+        assert "or accept it with interface.max_offset = 1.3 (now 0.5)" in proc.stderr
+        assert not (tmp_path / "out").exists()
+
+
+def test_resolved_interfaces_are_silent_3d(tmp_path):
+    """Planes (through vertices, along cell faces, inclined) and the quadratic sphere, which
+    the quadratic cells hold exactly, on HEXA20 and TETRA10: offset 0 (round-off), no
+    warning; so on every 3-D case of cases/validation."""
+    from xfemcontact import preflight
+    from xfemcontact.case import load_case
+
+    for edits in ((), TETRA3D):
+        for level_set in ("x + 0.5*y - 0.3*z - 0.41", "z - 0.5", "x + y - 1",
+                          "(x - 0.47)**2 + (y - 0.52)**2 + (z - 0.49)**2 - 0.09"):
+            text = re.sub(r"^level_set = .*$", f'level_set = "{level_set}"', edited(BOX3D, *edits), flags=re.M)
+            pre = checked(tmp_path, text)
+            assert pre.warnings == [] and pre.resolution["offset_h"] < 1e-9, (edits, level_set, pre.resolution)
+    seen = 0
+    for path in sorted((ROOT / "cases" / "validation").glob("*.toml")):
+        case = load_case(path)
+        if case.mesh.box is None or case.interface is None:
+            continue
+        pre = preflight.preflight(case, preflight.build_mesh(case))
+        assert pre.warnings == [] and pre.resolution["offset_h"] < 1e-9, (path.name, pre.resolution)
+        seen += 1
+    assert seen >= 20
 
 
 # --- 7. mesh files confined to the case, sizes bounded ---------------------------------------

@@ -25,7 +25,8 @@ no MPI_Abort).  In order:
 6. :func:`interface_resolution`: how far the interface the mesh represents (the
    zero of the interpolated nodal LN) is from the zero of the level-set formula;
    beyond ``interface.max_offset`` (a fraction of the cell size) the case is
-   refused, beyond :data:`OFFSET_WARNING` it is a warning.
+   refused, beyond :data:`OFFSET_WARNING` it is a warning (:func:`check_resolution`;
+   2-D and 3-D, one code).
 
 After the set-up, :func:`readjustment_warnings` says when the readjustment rules
 had to lift many edges (an interface the mesh follows poorly).
@@ -236,16 +237,7 @@ def _preflight(case: Case, raw: RawMesh) -> Preflight:
                                                    source=case.source, key=key, interior=interior)
             if problem:
                 raise GeometryError(problem)
-        if itf.level_set is not None:
-            result.resolution = interface_resolution(case, raw, phi)
-            message = _resolution_message(case, result.resolution)
-            if message is not None and result.resolution is not None and result.resolution["refused"]:
-                raise GeometryError(message)
-            if message is not None and phi is None:
-                # it meets the domain, but between the nodes: said instead of "does not meet"
-                result.warnings = [message + ": solving without interface"]
-            elif message is not None:
-                result.warnings.append(message)
+        check_resolution(case, raw, phi, result)
     law = laws.get(itf.law) if itf is not None and phi is not None else None
     problem = rigid_body_modes(case, raw, phi, law, interior=interior)
     if problem:
@@ -255,9 +247,9 @@ def _preflight(case: Case, raw: RawMesh) -> Preflight:
 
 def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -> Preflight:
     """What :func:`_preflight` checks of a 3-D mesh after the groups, the extent and the
-    imposed displacements: the level set (laws ``free`` and ``bonded``; contact and
-    friction are refused) and the rigid-body motions (:mod:`xfemcontact.rigid`, each
-    side a body for ``free``)."""
+    imposed displacements: the level set (finite, meets the domain, no cell with LN = 0 at
+    every node, what 3-D contact does not do refused, the interface resolution as in 2-D)
+    and the rigid-body motions (:mod:`xfemcontact.rigid`, each side a body for ``free``)."""
     from xfemcontact import rigid
 
     itf = case.interface
@@ -291,6 +283,7 @@ def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -
                 raise GeometryError(f"{case.source}: {key}: LN = 0 at every node of cell {flat[0]} near "
                                     f"({ctr[0]:.6g}, {ctr[1]:.6g}, {ctr[2]:.6g}): the interface must be "
                                     f"a surface with LN < 0 on one side and LN > 0 on the other")
+        check_resolution(case, raw, phi, result)
     law = laws.get(itf.law) if itf is not None and phi is not None else None
     problem = rigid.check(case, raw, phi if law is not None and law.separate_bodies else None)
     if problem:
@@ -689,30 +682,60 @@ def _extent(x: FloatArray, cells: IntArray) -> float:
 
 # --- how well the mesh represents the interface ---------------------------------------------
 
+def check_resolution(case: Case, raw: RawMesh, phi: FloatArray | None, result: Preflight) -> None:
+    """:func:`interface_resolution` of a ``level_set`` formula into ``result`` (2-D and 3-D):
+    its outcome (``result.resolution``, results.json ``interface_resolution``) and the
+    warning beyond :data:`OFFSET_WARNING`; a :class:`GeometryError` beyond
+    ``interface.max_offset``.  ``phi``: the nodal LN, None when it takes one sign on the
+    nodes (the warning then replaces "does not meet the domain")."""
+    itf = case.interface
+    if itf is None or itf.level_set is None:
+        return
+    result.resolution = interface_resolution(case, raw, phi)
+    message = _resolution_message(case, result.resolution)
+    if message is not None and result.resolution is not None and result.resolution["refused"]:
+        raise GeometryError(message)
+    if message is not None and phi is None:
+        # it meets the domain, but between the nodes: said instead of "does not meet"
+        result.warnings = [message + ": solving without interface"]
+    elif message is not None:
+        result.warnings.append(message)
+
+
 def _sample_points(el: Element, k: int = 6) -> FloatArray:
-    """Reference points of a k-interval grid of the cell (corners and edges included)."""
+    """Reference points ``(m, dim)`` of a k-interval grid of the cell, corners, edges and
+    faces included: on simplices (TRIA6, TETRA10) the grid points with coordinates summing
+    to at most 1 (28 / 84 points for k = 6), on quadrangles and hexahedra the whole
+    (k + 1)^dim grid of [-1, 1]^dim (49 / 343 points).  First coordinate slowest."""
     t = np.linspace(0.0, 1.0, k + 1)
-    if el.nv == 3:
-        return np.array([(a, b) for i, a in enumerate(t) for b in t[:k + 1 - i]])
-    u = 2.0 * t - 1.0
-    return np.array([(a, b) for a in u for b in u])
+    index = np.stack(np.meshgrid(*[np.arange(k + 1)] * el.dim, indexing="ij"), axis=-1).reshape(-1, el.dim)
+    if el.nv == el.dim + 1:                                     # a simplex
+        return t[index[index.sum(axis=1) <= k]]
+    return (2.0 * t - 1.0)[index]
+
+
+#: sample points a batch of :func:`interface_resolution` (4096 QUAD8 cells of 49 points)
+SAMPLES_PER_BATCH = 4096 * 49
 
 
 def interface_resolution(case: Case, raw: RawMesh, phi: FloatArray | None) -> dict[str, Any] | None:
-    """How far the interface the mesh represents is from the zero of the level-set formula.
+    """How far the interface the mesh represents is from the zero of the level-set formula
+    (2-D and 3-D: the same rule).
 
     On the cells near the interface (nodal LN of both signs, or smaller than twice its
-    spread in the cell), LN is sampled on a grid of each cell: the formula ``f`` and the
-    interpolant ``p`` of its nodal values.  Where their signs differ, a point lies
-    between the two zero lines, which are then at least ``|f| / |grad f| + |p| / |grad p|``
-    apart there (each distance capped at the cell size h).  Returns a dict: the largest
-    such offset ``offset_h`` (a fraction of the cell's h) and ``offset_m`` (m), where
-    (``at``, ``cell``), whether the nodal values of that cell have both signs
-    (``seen``), the cells sampled, and ``refused`` (``offset_h`` above
-    ``interface.max_offset``).  ``phi``: the nodal LN (None when it does not take both
+    spread in the cell), LN is sampled on a grid of each cell (:func:`_sample_points`): the
+    formula ``f`` and the interpolant ``p`` of its nodal values.  Where their signs differ,
+    a point lies between the two zero sets (lines in 2-D, surfaces in 3-D), which are then
+    at least ``|f| / |grad f| + |p| / |grad p|`` apart there (each distance capped at the
+    cell size h, the largest distance between its vertices; grad f by central differences
+    of 1e-7 h).  Returns a dict: the largest such offset ``offset_h`` (a fraction of the
+    cell's h) and ``offset_m`` (m), where (``at``: d coordinates, ``cell``), whether the
+    nodal values of that cell have both signs (``seen``), the cells sampled, and
+    ``refused`` (``offset_h`` above ``interface.max_offset``); None where the formula is
+    not finite at a sample point.  ``phi``: the nodal LN (None when it does not take both
     signs on the nodes).
     """
-    from xfemcontact.fem.elements import element, physical_gradients
+    from xfemcontact.fem.elements import element
 
     itf = case.interface
     assert itf is not None and itf.level_set is not None     # a level-set formula
@@ -720,14 +743,14 @@ def interface_resolution(case: Case, raw: RawMesh, phi: FloatArray | None) -> di
     cells, x = raw.cells, raw.points
     used = np.unique(cells)
     values = np.zeros(len(x))
-    values[used] = itf.level_set(x=x[used, 0], y=x[used, 1])
+    values[used] = itf.level_set(**coordinates(x[used]))
     scale = float(np.ldexp(1.0, -np.frexp(np.abs(values).max())[1])) if values.any() else 1.0
     values *= scale                    # exact (a power of two): no overflow, no underflow
 
     formula = itf.level_set
 
-    def level_set(xs: FloatArray, ys: FloatArray) -> FloatArray:
-        return formula(x=xs, y=ys) * scale
+    def level_set(points: FloatArray) -> FloatArray:
+        return formula(**coordinates(points)) * scale
 
     pc = values[cells]
     lo, hi = pc.min(axis=1), pc.max(axis=1)
@@ -739,63 +762,76 @@ def interface_resolution(case: Case, raw: RawMesh, phi: FloatArray | None) -> di
     if len(cand) == 0:
         return out
     xi = _sample_points(el)
-    N, dN = el.shape(xi), el.dshape(xi)                          # (m, nn), (m, nn, 2)
+    shapes = (xi, el.shape(xi), el.dshape(xi))
+    batch = max(1, SAMPLES_PER_BATCH // len(xi))
     best: tuple[float, tuple[int, float, FloatArray] | None] = (0.0, None)
-    for start in range(0, len(cand), 4096):
-        c = cand[start:start + 4096]
-        xc = x[cells[c]]                                         # (b, nn, 2)
-        pts = np.einsum("ma,bai->bmi", N, xc)                    # (b, m, 2)
-        p = pc[c] @ N.T                                          # (b, m)
+    for start in range(0, len(cand), batch):
         try:
-            f = level_set(pts[..., 0], pts[..., 1])
+            found = _batch_offset(el, x[cells[cand[start:start + batch]]], pc[cand[start:start + batch]],
+                                  shapes, level_set)
         except XfcError:               # not finite between the nodes: cannot tell here
             return None
-        wrong = (np.sign(f) * np.sign(p) < 0)
-        if not wrong.any():
-            continue
-        b, m = np.nonzero(wrong)
-        h = np.linalg.norm(xc[:, :el.nv, None] - xc[:, None, :el.nv], axis=-1).max(axis=(1, 2))
-        J = el.jacobians(xc[b], xi)[np.arange(len(b)), m]         # (k, 2, 2)
-        grads, _ = physical_gradients(dN[m], J)                  # (k, nn, 2)
-        gp = np.einsum("ka,kai->ki", pc[c][b], grads)
-        here = pts[b, m]
-        step = 1e-7 * h[b]
-        try:
-            gf = np.stack([(level_set(here[:, 0] + step, here[:, 1])
-                            - level_set(here[:, 0] - step, here[:, 1])) / (2 * step),
-                           (level_set(here[:, 0], here[:, 1] + step)
-                            - level_set(here[:, 0], here[:, 1] - step)) / (2 * step)], -1)
-        except XfcError:
-            return None
-        with np.errstate(all="ignore"):
-            df = np.abs(f[b, m]) / np.linalg.norm(gf, axis=1)
-            dp = np.abs(p[b, m]) / np.linalg.norm(gp, axis=1)
-        hb = h[b]
-        df = np.where(np.isfinite(df), np.minimum(df, hb), hb)
-        dp = np.where(np.isfinite(dp), np.minimum(dp, hb), hb)
-        offset = (df + dp) / hb
-        i = int(np.argmax(offset))
-        if offset[i] > best[0]:
-            cell = int(c[b[i]])
-            best = (float(offset[i]), (cell, float(offset[i] * hb[i]), here[i]))
+        if found is not None and found[0] > best[0]:
+            offset, i, metres, at = found
+            best = (offset, (int(cand[start + i]), metres, at))
     if best[1] is not None:
         cell, metres, at = best[1]
-        out.update(offset_h=best[0], offset_m=metres, at=[float(at[0]), float(at[1])], cell=cell,
+        out.update(offset_h=best[0], offset_m=metres, at=[float(a) for a in at], cell=cell,
                    seen=bool(lo[cell] < 0 < hi[cell] or phi is not None and
                              (phi[cells[cell]] == 0).any()))
         out["refused"] = best[0] > itf.max_offset
     return out
 
 
+def _batch_offset(el: Element, xc: FloatArray, pc: FloatArray, shapes: tuple[FloatArray, FloatArray, FloatArray],
+                  level_set: Any) -> tuple[float, int, float, FloatArray] | None:
+    """The largest offset of :func:`interface_resolution` over a batch of cells: ``xc (b,
+    nn, d)`` their nodes (m), ``pc (b, nn)`` the nodal LN, ``shapes`` the sample points
+    ``xi (m, d)`` with the shape functions ``(m, nn)`` and their reference gradients
+    ``(m, nn, d)`` there, ``level_set`` the formula of points ``(..., d)``.  Returns
+    (offset / h, the cell's row in the batch, offset (m), the point ``(d,)``), None where
+    the signs agree everywhere; raises the formula's XfcError where it is not finite."""
+    from xfemcontact.fem.elements import physical_gradients
+
+    xi, N, dN = shapes
+    pts = np.matmul(N, xc)                                   # (b, m, d)
+    p = pc @ N.T                                             # (b, m)
+    f = level_set(pts)
+    wrong = (np.sign(f) * np.sign(p) < 0)
+    if not wrong.any():
+        return None
+    b, m = np.nonzero(wrong)
+    h = np.linalg.norm(xc[:, :el.nv, None] - xc[:, None, :el.nv], axis=-1).max(axis=(1, 2))
+    rows, inverse = np.unique(b, return_inverse=True)       # the Jacobians of these cells only
+    J = el.jacobians(xc[rows], xi)[inverse, m]               # (k, d, d)
+    grads, _ = physical_gradients(dN[m], J)                  # (k, nn, d)
+    gp = np.einsum("ka,kai->ki", pc[b], grads)
+    here = pts[b, m]
+    step = 1e-7 * h[b]
+    unit = np.eye(xc.shape[2])
+    gf = np.stack([(level_set(here + step[:, None] * e) - level_set(here - step[:, None] * e)) / (2 * step)
+                   for e in unit], -1)
+    with np.errstate(all="ignore"):
+        df = np.abs(f[b, m]) / np.linalg.norm(gf, axis=1)
+        dp = np.abs(p[b, m]) / np.linalg.norm(gp, axis=1)
+    hb = h[b]
+    df = np.where(np.isfinite(df), np.minimum(df, hb), hb)
+    dp = np.where(np.isfinite(dp), np.minimum(dp, hb), hb)
+    offset = (df + dp) / hb
+    i = int(np.argmax(offset))
+    return float(offset[i]), int(b[i]), float(offset[i] * hb[i]), here[i]
+
+
 def _resolution_message(case: Case, r: dict[str, Any] | None) -> str | None:
     """The warning or refusal of :func:`interface_resolution`'s outcome ``r``, or None."""
     if r is None or r["offset_h"] <= OFFSET_WARNING:
         return None
-    at = f"({r['at'][0]:.4g}, {r['at'][1]:.4g})"
+    at = "(" + ", ".join(f"{a:.4g}" for a in r["at"]) + ")"
     prefix = f"{case.source}: interface.level_set: "
     if not r["seen"]:
+        closed = "a closed surface" if len(r["at"]) == 3 else "a closed curve"
         what = (f"the level set changes sign inside cell {r['cell']} near {at} but not at its "
-                f"nodes: the mesh does not see the interface there (a closed curve or a fold "
+                f"nodes: the mesh does not see the interface there ({closed} or a fold "
                 f"smaller than the cell?)")
     else:
         what = (f"the interface the mesh represents is up to {r['offset_h']:.2g} h "

@@ -106,25 +106,41 @@ def write_fields(folder: OutputFolder, model: Model) -> tuple[PostMesh | None, l
     if post is None:
         return None, []
     formats = model.case.output.formats
-    meshes = [("fields", post)] + ([("interface", post.interface)] if post.interface is not None else [])
     written: list[str] = []
     if "xdmf" in formats:
         from xfemcontact.output import xdmf
 
         with timing.step("output:xdmf"):
-            for name, mesh in meshes:
+            for name, mesh in field_meshes(post):
                 xdmf.write(folder.file(f"{name}.xdmf"), mesh)
                 written += [f"{name}.xdmf", f"{name}.h5"]
-    if "vtu" in formats or "med" in formats:
-        import meshio
+    return post, written + write_meshio_formats(folder, post, formats)
+
+
+def field_meshes(post: PostMesh) -> list[tuple[str, PostMesh]]:
+    """The meshes of the field files, by file stem: ``fields`` (the post-processing mesh)
+    and, in 3-D with an interface, ``interface`` (its interface surface)."""
+    return [("fields", post)] + ([("interface", post.interface)] if post.interface is not None else [])
+
+
+def write_meshio_formats(folder: OutputFolder, post: PostMesh, formats: Iterable[str]) -> list[str]:
+    """The field files meshio writes, as ``formats`` asks: ``vtu`` -> fields.vtu (and
+    interface.vtu, :func:`field_meshes`), ``med`` -> fields.med.  Rank 0 (``post``);
+    returns the names written."""
+    formats = set(formats)
+    if not formats & {"vtu", "med"}:
+        return []
+    import meshio
+
+    written: list[str] = []
     if "vtu" in formats:
-        for name, mesh in meshes:
+        for name, mesh in field_meshes(post):
             meshio.write(folder.file(f"{name}.vtu"), mesh.to_meshio(), file_format="vtu")
             written.append(f"{name}.vtu")
     if "med" in formats:
         meshio.write(folder.file("fields.med"), post.to_meshio(med=True), file_format="med")
         written.append("fields.med")
-    return post, written
+    return written
 
 
 def write_outputs(folder: OutputFolder, model: Model, converged: bool, reason: int,

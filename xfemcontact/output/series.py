@@ -3,7 +3,10 @@
 * ``fields.xdmf`` + ``fields.h5``: an XDMF temporal collection (ParaView animates
   it): the post-processing mesh once (cut cells as their sub-triangles, interface
   points duplicated), its point and cell fields at every completed step;
-* ``fields.vtu`` / ``fields.med`` (if asked): the last completed step;
+* ``interface.xdmf`` + ``interface.h5`` (3-D with an interface): the interface surface
+  (:mod:`xfemcontact.post.surface`) as a temporal collection the same way: its facets
+  once, LAGS_C, LAGS_F1, LAGS_F2, T, gap, slip, the statuses ... at every completed step;
+* ``fields.vtu`` / ``interface.vtu`` / ``fields.med`` (if asked): the last completed step;
 * ``interface.csv``: the interface table of every completed step, one block of
   rows per step, with the columns ``inst`` (first) and ``slip_path`` (the
   accumulated slip: the sum over the steps of |slip increment|, m) besides the
@@ -24,6 +27,7 @@ from typing import TYPE_CHECKING, Any, Callable, Iterable
 
 import numpy as np
 
+from xfemcontact import timing
 from xfemcontact.output import interface_csv
 
 if TYPE_CHECKING:
@@ -50,44 +54,49 @@ HISTORY_POINTS = (0.0, 0.25, 0.5, 0.75, 1.0)
 
 def write_fields(folder: OutputFolder, model: Model, stepper: Stepper,
                  checkpoints: Checkpoints) -> tuple[PostMesh | None, list[str]]:
-    """fields.xdmf as a time series (and fields.vtu / fields.med at the last step).
-    Collective.  Leaves the model at its last completed step; returns the PostMesh
-    of that step (rank 0) and the names written."""
+    """fields.xdmf as a time series, in 3-D with an interface interface.xdmf too (and
+    fields.vtu / interface.vtu / fields.med at the last step, as
+    :func:`xfemcontact.output.results.write_meshio_formats`).  Collective.  Leaves the
+    model at its last completed step; returns the PostMesh of that step (rank 0) and the
+    names written."""
+    from xfemcontact.output import results
     from xfemcontact.post import postmesh
 
     formats = model.case.output.formats
     steps = stepper.steps
-    writer = None
-    written: list[str] = []
+    writers: dict[str, _TimeSeries] = {}          # by file stem (results.field_meshes)
     post = None
     frames = [(i + 1, s["inst"]) for i, s in enumerate(steps)] or [(0, stepper.time)]
     try:
         for index, t in frames:
             if index:
-                checkpoints.load(model, index)
-                stepper.loads.apply(t)
-            post = postmesh.build(model)
+                with timing.step("output:load_step"):
+                    checkpoints.load(model, index)
+                    stepper.loads.apply(t)
+            with timing.step("output:postmesh"):
+                post = postmesh.build(model)
             if post is None or "xdmf" not in formats:
                 continue
-            m = post.to_meshio()
-            if writer is None:
-                writer = _TimeSeries(folder, "fields.xdmf")
-                writer.mesh(m)
-                written += ["fields.xdmf", "fields.h5"]
-            writer.frame(t, m)
+            with timing.step("output:xdmf"):
+                for name, mesh in results.field_meshes(post):
+                    _frame(folder, writers, name, t, mesh.to_meshio())
     finally:
-        if writer is not None:
+        for writer in writers.values():
             writer.close()
+    written = [f"{name}{ext}" for name in writers for ext in (".xdmf", ".h5")]
     if post is not None:
-        import meshio
-
-        if "vtu" in formats:
-            meshio.write(folder.file("fields.vtu"), post.to_meshio(), file_format="vtu")
-            written.append("fields.vtu")
-        if "med" in formats:
-            meshio.write(folder.file("fields.med"), post.to_meshio(med=True), file_format="med")
-            written.append("fields.med")
+        written += results.write_meshio_formats(folder, post, formats)
     return post, written
+
+
+def _frame(folder: OutputFolder, writers: dict[str, _TimeSeries], name: str, t: float, m: meshio.Mesh) -> None:
+    """Write the fields of ``m`` at instant ``t`` (s) into the time series ``name``.xdmf,
+    opened (with ``m``'s points and cells, the same at every instant) at its first frame."""
+    writer = writers.get(name)
+    if writer is None:
+        writer = writers[name] = _TimeSeries(folder, f"{name}.xdmf")
+        writer.mesh(m)
+    writer.frame(t, m)
 
 
 class _TimeSeries:
