@@ -21,9 +21,19 @@ Weak form per unit length (rho_n = COEF_CONT in Pa/m, rho_t = COEF_FROT in
 At convergence lam = sigma_nn and mu s Lam = sigma_nt: LAGS_F1 =
 sigma_nt / (mu sigma_nn), |LAGS_F1| <= 1, = 1 in slip.
 
+In 3-D (code_aster's continuous method with two friction directions) ``ut`` and
+``Lam`` = (LAGS_F1, LAGS_F2) are vectors of the tangent plane, by their components in
+the tangent basis (t1, t2) (``(..., 2)``), and the trial value ``gt = Lam - rho_t ut``
+is projected on the unit disc: ``p = gt`` inside (stick), ``gt / |gt|`` outside (slip),
+with the derivative (I - p p^T) / |gt| in slip (the direction turns, the magnitude
+stays 1).  The weak form is the same with dot products; |(LAGS_F1, LAGS_F2)| = 1 in
+slip.  :func:`disc_terms` is that form for any number of components; with one it is
+the 2-D law above, operation for operation (:func:`point_terms` takes both).
+
 Traction form (option ``friction_unknown = "TRACTION"``): the friction dof holds
 the tangential traction T = mu s Lam (Pa) instead of Lam, with the trial
-traction ``T + rho_T ut`` projected on [-mu |s|, mu |s|] and a fixed
+traction ``T + rho_T ut`` projected on [-mu |s|, mu |s|] (3-D: the disc of radius
+mu |s|, derivative mu |s| (I - p p^T) / |T + rho_T ut| in slip) and a fixed
 augmentation ``rho_T = max(COEF_CONT, mu COEF_FROT |SEUIL_INIT|)`` (Pa/m).  It is
 the same law -- code_aster's trial value times mu s -- but the stick tangent no
 longer depends on the threshold s: when the threshold loop updates s and every

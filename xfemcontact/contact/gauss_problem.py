@@ -6,6 +6,14 @@ thresholds live at the Gauss points (:class:`~xfemcontact.contact.problem.PointS
 The protocol is that of :mod:`xfemcontact.contact.problem`, with the fallbacks
 of :mod:`xfemcontact.solver.loops` (stick predictor, frictionless start redone
 sticking, line search, frozen friction statuses).
+
+Both dimensions, one code: the interface elements are the cut cells of the segments
+(2-D) or of the facets (3-D: :class:`~xfemcontact.xfem.integration3d.FacetPoints`), the
+friction dofs and fields have nf = d - 1 components in the tangent basis (3-D: LAGS_F1,
+LAGS_F2 along t1, t2 of :func:`~xfemcontact.xfem.integration3d.tangent_basis`), and the
+law projects the trial value on Coulomb's disc (:func:`gauss_point.disc_terms`; in 2-D
+the interval, with the same arithmetic as before).  In 3-D the friction statuses the
+loops' fallbacks compare and hold are the slip directions ``(k, ng, 2)``.
 """
 from __future__ import annotations
 
