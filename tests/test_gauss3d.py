@@ -8,8 +8,10 @@
 * Coulomb friction: a uniform stress that sticks gives the exact tractions (LAGS_C, both
   tangential components), in both friction forms; above the limit with an imposed slip,
   T = mu p along the slip, |(LAGS_F1, LAGS_F2)| = 1, the slip exact;
-* the frozen slip directions of the loops' last fallback; bilateral sliding (glissiere);
-* ``mpirun -n 2`` gives the answer of one process.
+* the frozen slip directions of the loops' last fallback; bilateral sliding (glissiere); a
+  load history (slow);
+* the validation cases cases/validation/box_*_gauss_*.toml from the command line;
+  ``mpirun -n 2`` gives the answer of one process.
 
 The boxes and loads are those of tests/test_contact3d.py (conditions at the dofs).
 """
@@ -134,7 +136,8 @@ def test_one_component_is_the_2d_law_bit_for_bit(form):
 @pytest.mark.parametrize("plane", ["generic", "inclined", "vertices", "tilted"])
 def test_uniform_pressure_is_exact(tmp_path, cell, plane):
     """-p I in both blocks: LAGS_C = -p and zero gap and slip at every interface point,
-    every point in contact, one Newton iteration."""
+    every point in contact, one Newton iteration (a plane 0.02 h from a row of vertices,
+    "near vertices", is conditioned worse: 4.4e-10 on TETRA10, 2.4e-10 at the dofs)."""
     loads = SYMMETRY + f"""
         [[traction]]
         group = ["right", "back", "top"]
@@ -143,7 +146,7 @@ def test_uniform_pressure_is_exact(tmp_path, cell, plane):
     model, v = solve(tmp_path, box(cell, PLANES[plane], loads, f'frottement = "SANS"\n        {GAUSS}'))
     assert model.problem.law is not None                    # the Gauss-point problem
     assert len(v["LAGS_C"]) and v["contact"].min() == 1
-    assert np.abs(v["LAGS_C"] + P).max() <= 1e-10 * P
+    assert np.abs(v["LAGS_C"] + P).max() <= 1e-12 * P          # measured 3e-15 - 9e-14
     assert np.abs(v["gap"]).max() <= 1e-15 and v["slip"].max() <= 1e-15
     assert v["LAGS_F1"].max() == v["LAGS_F2"].max() == v["T"].max() == 0.0
     assert model.solver.iterations()["newton"] == 1
@@ -242,22 +245,54 @@ def test_glissiere(tmp_path):
     assert r["tests"] and all(t["ok"] for t in r["tests"])
 
 
-# -- processes ---------------------------------------------------------------------------------
+@pytest.mark.slow
+def test_load_history(tmp_path):
+    """A 3-D load history with the Gauss-point form (cases/validation/history_turn3d_hexa20.toml:
+    stick, slip along x, then y, then the diagonal, unloading; about 12 s): every test OK,
+    the step's tangential jump counted from the previous step's in two components."""
+    text = (ROOT / "cases" / "validation" / "history_turn3d_hexa20.toml").read_text()
+    case = write_case(tmp_path, text.replace("[contact]\n", f"[contact]\n{GAUSS}\n", 1), "turn.toml")
+    done = run_cli(["run", case, "-o", tmp_path / "out", "-q"])
+    assert done.returncode == 0, done.stdout + done.stderr
+    r = results(tmp_path / "out")
+    assert len(r["tests"]) > 10 and all(t["ok"] for t in r["tests"])
+
+
+# -- command line, processes --------------------------------------------------------------------
+VALIDATION = ("box_plane_contact_gauss_hexa20", "box_plane_opening_gauss_tetra10", "box_incline_stick_gauss_hexa20",
+              "box_incline_slip_gauss_tetra10")
+
+
+@pytest.mark.parametrize("name", VALIDATION)
+def test_validation_cases(tmp_path, name):
+    """The 3-D validation cases with the Gauss-point form: every test OK, the 3-D columns of
+    interface.csv, the Gauss-point problem's statuses at every point."""
+    out = tmp_path / name
+    done = run_cli(["run", ROOT / "cases" / "validation" / f"{name}.toml", "-o", out, "-q"])
+    assert done.returncode == 0, done.stdout + done.stderr
+    r = results(out)
+    assert r["tests"] and all(t["ok"] for t in r["tests"])
+    table = interface_csv.read(out / "interface.csv")
+    assert set(interface_csv.COLUMNS_3D) <= set(table) and len(table["x"]) == len(r["interface"]["x"]) > 0
+    assert (table["contact"] == (0 if "opening" in name else 1)).all()
+    assert (table["sliding"] == (1 if "slip" in name else 0)).all()
+
+
 def test_two_processes_give_the_answer_of_one(tmp_path):
     """``mpirun -n 2`` reproduces one process's interface.csv to 1e-10 on the slip case
-    (TETRA10, tilted plane; the gap, zero, to 1e-10 of the displacements)."""
-    base = (ROOT / "cases" / "validation" / "box_incline_slip_tetra10.toml").read_text()
-    base = base.replace("[contact]\n", f"[contact]\n{GAUSS}\n", 1)
-    # the gap to Newton's RESI_GLOB_RELA = 1e-10: 1.5e-14 m (of a slip of 5e-4 m) here
-    case = write_case(tmp_path, base.replace("tolerance = 1.0e-14", "tolerance = 1.0e-13"), "slip.toml")
-    outs = {}
+    (TETRA10, tilted plane; the gap, zero, to 1e-10 of the displacements; measured 2.7e-13),
+    in as many Newton iterations."""
+    case = ROOT / "cases" / "validation" / "box_incline_slip_gauss_tetra10.toml"
+    outs, newton = {}, {}
     for np_ in (None, 2):
         out = tmp_path / f"n{np_ or 1}"
         done = run_cli(["run", case, "-o", out, "-q"], np=np_)
         assert done.returncode == 0, done.stdout + done.stderr
         outs[np_ or 1] = interface_csv.read(out / "interface.csv")
+        newton[np_ or 1] = results(out)["iterations"]["newton"]
     one, two = outs[1], outs[2]
     assert np.array_equal(one["cell"], two["cell"]) and (one["sliding"] == 1).all()
     for key in ("x", "y", "z", "LAGS_C", "LAGS_F1", "LAGS_F2", "T", "gap", "slip"):
         scale = max(np.abs(one[key]).max(), 1e-4 if key in ("gap", "slip") else 1e-300)
         assert np.abs(one[key] - two[key]).max() <= 1e-10 * scale, key
+    assert newton[1] == newton[2]
