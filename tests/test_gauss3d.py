@@ -214,6 +214,18 @@ def test_slip_is_exact(tmp_path, cell, plane):
     assert model.solver.iterations()["newton"] <= 40
 
 
+def test_slip_traction_form(tmp_path):
+    """The traction as friction unknown (its trial value projected on the disc of radius
+    mu |s|), TETRA10, tilted plane, slipping: the exact state, LAGS_F1 and LAGS_F2 (the
+    traction over mu LAGS_C, the threshold of the last threshold iteration against LAGS_C
+    now) to 1e-7 (measured 6e-8)."""
+    text, n, d = sheared("TETRA10", TILTED[0], TILTED[1], MU * P, 5e-4)
+    text = gauss(text).replace("[contact]\n", '[contact]\n        friction_unknown = "TRACTION"\n', 1)
+    model, v = solve(tmp_path, text)
+    assert model.problem.friction_unknown == "traction"
+    check_uniform_stress(v, n, d, MU * P, 5e-4, 1e-7)
+
+
 def test_frozen_slip_directions(tmp_path):
     """The loops' last fallback in 3-D: the statuses are the unit slip directions (rounded),
     and Newton with them held (a linear problem) keeps the converged slipping state."""
