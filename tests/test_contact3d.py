@@ -279,17 +279,6 @@ def test_processes_give_the_answer_of_one(tmp_path, name):
             assert np.abs(one[key] - other[key]).max() <= rel * scale, key
 
 
-def test_what_3d_contact_does_not_do_is_refused_on_one_line(tmp_path):
-    """code_aster's Gauss-point form: exit code 2, one line (load histories run: see
-    tests/test_history3d.py)."""
-    base = (ROOT / "cases" / "validation" / "box_plane_opening_tetra10.toml").read_text()
-    text = base.replace('frottement = "SANS"', 'frottement = "SANS"\nintegration = "GAUSS"')
-    done = run_cli(["run", write_case(tmp_path, text, "gauss.toml"), "-o", tmp_path / "gauss"])
-    assert done.returncode == 2, done.stderr
-    lines = [line for line in done.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1 and '"GAUSS" is not there in 3-D yet' in lines[0], done.stderr
-
-
 def test_friction_direction_rule():
     """The vector rule: a sticking dof slips along the trial traction beyond the bound; a
     slipping dof follows the trial traction while its component along the slip reaches

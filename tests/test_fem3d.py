@@ -6,7 +6,7 @@ patch tests (a linear displacement reproduced to round-off through imposed
 displacements, face tractions and pressures, on distorted hexahedra, generated
 tetrahedra and an unstructured Gmsh mesh), a quadratic field reproduced exactly,
 convergence orders on a smooth manufactured solution, one process against two,
-and the refusals (bad box keys, unsupported 3-D cells, a cutting level set).
+and the refusals (bad box keys, unsupported 3-D cells).
 """
 import math
 
@@ -601,16 +601,10 @@ def test_clamped_nodes_held_on_every_process(tmp_path, np_):
             assert np.abs(a[name][()] - b[name][()]).max() <= 1e-10 * scale
 
 
-def test_cutting_level_set_is_refused_on_one_line(tmp_path):
-    """A level set cutting a 3-D mesh with the contact law in code_aster's Gauss-point
-    form: refused on one line (contact at the dofs, free and bonded run:
-    tests/test_contact3d.py, tests/test_xfem3d_bulk.py)."""
-    text = (MPI_CASE.replace("CELL", "HEXA20") + '\n[interface]\nlevel_set = "z - 1.1"\n'
-            '\n[contact]\nintegration = "GAUSS"\n')
-    done = run_cli(["run", write_case(tmp_path, text), "-o", tmp_path / "out"])
-    assert done.returncode == 2
-    lines = [line for line in done.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1 and '"GAUSS" is not there in 3-D yet' in lines[0], done.stderr
+def test_level_set_missing_the_domain_runs_without_interface(tmp_path):
+    """A level set that does not meet a 3-D mesh: a warning, and the case runs without an
+    interface (cutting level sets: tests/test_contact3d.py, tests/test_gauss3d.py,
+    tests/test_xfem3d_bulk.py)."""
     text = MPI_CASE.replace("CELL", "HEXA20") + '\n[interface]\nlevel_set = "z + 1"\n'
     done = run_cli(["run", write_case(tmp_path, text), "-o", tmp_path / "out2"])
     assert done.returncode == 0 and "does not meet the domain" in done.stderr, done.stderr

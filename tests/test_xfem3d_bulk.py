@@ -8,8 +8,8 @@
   loaded on its own: each side gets its exact field, and the jump across the interface
   is the difference of the two;
 * the volumes of the sides from the assembled quadrature are exact for planar cuts;
-* 2 and 3 processes give the answer of one; GAUSS contact in 3-D is refused on one line; the
-  rigid-body check knows the two sides of a free interface.
+* 2 and 3 processes give the answer of one; the rigid-body check knows the two sides of a
+  free interface (contact in 3-D: tests/test_contact3d.py, tests/test_gauss3d.py).
 """
 import numpy as np
 import pytest
@@ -240,7 +240,7 @@ def test_side_volumes_from_the_assembled_quadrature(tmp_path, cell, cut):
     assert abs(vol[-1] - below) < 1e-12 and abs(vol[1] - (1 - below)) < 1e-12
 
 
-# -- command line: processes, refusals -----------------------------------------------------
+# -- command line: processes ----------------------------------------------------------------
 @pytest.mark.mpi
 @pytest.mark.parametrize("name", ["box_plane_free_hexa20", "box_sphere_bonded_tetra10"])
 def test_processes_give_the_one_process_answer(tmp_path, name):
@@ -267,16 +267,6 @@ def test_processes_give_the_one_process_answer(tmp_path, name):
                                                                                          rtol=0, atol=1e-14)
             for k in ("data2", "data3", "data4"):     # DX, DY, DZ
                 assert np.abs(ref[k] - b[k][()]).max() <= 1e-10 * scale
-
-
-def test_gauss_contact_in_3d_is_refused_on_one_line(tmp_path):
-    """Contact in 3-D runs with the conditions at the dofs (tests/test_contact3d.py);
-    code_aster's Gauss-point form is refused on one line."""
-    text = cube("HEXA20", CUTS["inclined"], "contact", IMPOSED) + '\n[contact]\nintegration = "GAUSS"\n'
-    done = run_cli(["run", write_case(tmp_path, text), "-o", tmp_path / "out"])
-    assert done.returncode == 2
-    lines = [line for line in done.stderr.splitlines() if line.strip()]
-    assert len(lines) == 1 and '"GAUSS" is not there in 3-D yet' in lines[0], done.stderr
 
 
 #: the free blocks' jump ([u] = u(+) - u(-), box_plane_free_hexa20.toml) along n = (1, 0, 0.3) / sqrt(1.09)

@@ -27,7 +27,7 @@ from xfemcontact.contact import laws
 from xfemcontact.contact.problem import InterfaceSetup
 from xfemcontact.dofs import constraints
 from xfemcontact.dofs.layout import DofLayout
-from xfemcontact.errors import CaseError, MeshError
+from xfemcontact.errors import MeshError
 from xfemcontact.fem.elasticity import hooke
 from xfemcontact.mesh import plex
 from xfemcontact.mesh.build import build_raw_mesh
@@ -146,9 +146,6 @@ class Model:
         if missed:                       # no interface in the domain: solve without one
             self.warnings.append(missed)
             return None
-        refusal = preflight.contact_3d_refusal(self.case) if mesh.dim == 3 else None
-        if refusal:                                            # preflight refuses it first
-            raise CaseError(refusal)
         return geometry.build(mesh, phi)
 
     def _layout(self) -> None:

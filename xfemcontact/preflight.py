@@ -274,8 +274,6 @@ def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -
             result.warnings.append(warning)
             result.interface = False
             phi = None
-        elif contact_3d_refusal(case):
-            raise CaseError(str(contact_3d_refusal(case)))
         else:
             flat = np.flatnonzero(~(phi[raw.cells] != 0).any(axis=1))
             if len(flat):
@@ -289,18 +287,6 @@ def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -
     if problem:
         raise CaseError(problem)
     return result
-
-
-def contact_3d_refusal(case: Case) -> str | None:
-    """The one line refusing what contact in 3-D does not do yet (None: nothing refused):
-    code_aster's Gauss-point form (``integration = "GAUSS"``)."""
-    itf = case.interface
-    if itf is None or not laws.get(itf.law).multipliers:
-        return None
-    if case.contact.integration == "GAUSS":
-        return (f"{case.source}: contact.integration: \"GAUSS\" is not there in 3-D yet "
-                f"(3-D contact takes integration = \"NOEUD\", the default)")
-    return None
 
 
 # --- groups ------------------------------------------------------------------------------

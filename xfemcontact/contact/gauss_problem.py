@@ -6,6 +6,14 @@ thresholds live at the Gauss points (:class:`~xfemcontact.contact.problem.PointS
 The protocol is that of :mod:`xfemcontact.contact.problem`, with the fallbacks
 of :mod:`xfemcontact.solver.loops` (stick predictor, frictionless start redone
 sticking, line search, frozen friction statuses).
+
+Both dimensions, one code: the interface elements are the cut cells of the segments
+(2-D) or of the facets (3-D: :class:`~xfemcontact.xfem.integration3d.FacetPoints`), the
+friction dofs and fields have nf = d - 1 components in the tangent basis (3-D: LAGS_F1,
+LAGS_F2 along t1, t2 of :func:`~xfemcontact.xfem.integration3d.tangent_basis`), and the
+law projects the trial value on Coulomb's disc (:func:`gauss_point.disc_terms`; in 2-D
+the interval, with the same arithmetic as before).  In 3-D the friction statuses the
+loops' fallbacks compare and hold are the slip directions ``(k, ng, 2)``.
 """
 from __future__ import annotations
 
@@ -36,6 +44,11 @@ if TYPE_CHECKING:
     Fields = tuple[FloatArray, FloatArray, FloatArray, FloatArray]
 
 
+#: 3-D: the slip directions :meth:`GaussContactProblem.friction_statuses` hands the loops are
+#: rounded to this many decimals (the frozen-status fallback compares statuses exactly)
+DIRECTION_DIGITS = 8
+
+
 class GaussContactProblem(InterfaceProblem):
     """Unilateral contact with Coulomb friction: code_aster's continuous method at the
     interface Gauss points (:mod:`xfemcontact.contact.gauss_point`)."""
@@ -57,8 +70,10 @@ class GaussContactProblem(InterfaceProblem):
         mesh, c = setup.mesh, setup.case.contact
         self.comm = mesh.comm
         self.warnings = []
-        self.segments, self.points, self.space = setup.geo.segments(), setup.points, setup.space
-        dofs = multiplier_dofs(mesh, setup.layout, setup.space, self.segments.cells)
+        self.segments = setup.geo.segments() if mesh.dim == 2 else None     # 3-D: facets
+        self.points, self.space = setup.points, setup.space
+        cells = self.segments.cells if self.segments is not None else setup.points.cells
+        dofs = multiplier_dofs(mesh, setup.layout, setup.space, cells)
         self.rep_index = dofs.rep_index
         self.pattern_points, self.remote_points = dofs.element_points, dofs.remote_points
         unknown = options.get("friction_unknown", c.friction_unknown)      # -xfc_friction_unknown, checked
@@ -82,6 +97,7 @@ class GaussContactProblem(InterfaceProblem):
                                      self.law, setup.points)
         self.indices = self._op.gidx
         self.phi = self._op.phi
+        self._nf = mesh.dim - 1                  # friction components (3-D: LAGS_F1, LAGS_F2)
         shape = setup.points.w.shape
         self._state = PointState(np.full(shape, 1 if c.contact_init is not False else 0, dtype=np.int64),
                                  np.full(shape, float(c.seuil_init) if c.seuil_init is not None else 0.0))
@@ -106,6 +122,11 @@ class GaussContactProblem(InterfaceProblem):
 
     def _fields(self, x: PETSc.Vec) -> Fields:
         return self._op.point_fields(self._op.element_values(x))
+
+    def _components(self, ut0: FloatArray) -> FloatArray:
+        """Tangential jumps of a saved state as ``(k, ng, nf)`` (2-D states saved before the
+        components were explicit are ``(k, ng)``)."""
+        return ut0[..., None] if ut0.ndim == 2 else ut0
 
     def update_status(self, x: PETSc.Vec) -> int:
         """Apply the status test; returns the number of points (all processes) that changed."""
@@ -151,26 +172,34 @@ class GaussContactProblem(InterfaceProblem):
     def _lags_c_dofs(self, x: PETSc.Vec) -> FloatArray:
         """LAGS_C dof values of this process's interface elements."""
         ve = self._op.element_values(x)
-        nn, nv = self._op.nn, self._op.nv
-        return ve[:, 2 * nn:2 * nn + nv][self.indices[:, 2 * nn:2 * nn + nv] >= 0]
+        nh, nv = self._op.d * self._op.nn, self._op.nv
+        return ve[:, nh:nh + nv][self.indices[:, nh:nh + nv] >= 0]
 
     def has_thresholds(self) -> bool:
         """Whether any point has a non-zero friction threshold (collective)."""
         return bool(self._mpi().allreduce(int(np.count_nonzero(self._state.s))))
 
     def friction_statuses(self, x: PETSc.Vec) -> FloatArray:
-        """``(k, ng)`` friction status at ``x``: 0 stick, +-1 slip direction."""
+        """The friction statuses at ``x``: 2-D ``(k, ng)``, 0 stick, +-1 slip direction; 3-D
+        ``(k, ng, 2)``, 0 stick, the unit slip direction in the tangent basis rounded to
+        :data:`DIRECTION_DIGITS` decimals (so that the loops, which compare statuses, take a
+        direction that moved by round-off for the same status)."""
         g, ut, lam, Lam = self._fields(x)
         st = self._state
         if st.ut0 is not None:
             ut = ut - st.ut0
-        return gauss_point.friction_status(self.law, st.chi, st.s, ut, Lam)
+        status = gauss_point.friction_status(self.law, st.chi, st.s, ut, Lam)
+        return status[..., 0] if self._nf == 1 else np.round(status, DIRECTION_DIGITS)
 
     @contextmanager
     def holding(self, statuses: FloatArray) -> Iterator[None]:
-        """Friction statuses imposed on the points for a block (0 stick, +-1 slip,
-        NaN: the trial value decides)."""
-        self._state.held = statuses
+        """Friction statuses imposed on the points for a block: ``(k, ng)`` (0 stick, +-1
+        slip in 2-D, NaN: the trial value decides; in 3-D 0 and NaN only, for every
+        component) or ``(k, ng, nf)`` (:meth:`friction_statuses`)."""
+        held = np.asarray(statuses, dtype=float)
+        if held.ndim == 2:
+            held = np.repeat(held[..., None], self._nf, axis=-1)
+        self._state.held = held
         try:
             yield
         finally:
@@ -196,7 +225,7 @@ class GaussContactProblem(InterfaceProblem):
             return
         g, ut, lam, Lam = self._fields(x)
         st = self._state
-        st.ut0 = ut.copy()
+        st.ut0 = ut.copy()                       # (k, ng, nf)
         if self.friction and not st.unbounded:
             st.s = gauss_point.threshold(lam)
             self._previous_lags_c = self._lags_c_dofs(x)
@@ -213,7 +242,7 @@ class GaussContactProblem(InterfaceProblem):
     def set_state(self, d: dict[str, Any]) -> None:
         self._state = PointState(np.array(d["chi"]).astype(np.int64), np.array(d["s"], dtype=float),
                                  None, bool(d["unbounded"]),
-                                 None if d["ut0"] is None else np.array(d["ut0"], dtype=float))
+                                 None if d["ut0"] is None else self._components(np.array(d["ut0"], dtype=float)))
         self.law.coef_frot = float(d["coef_frot"])
         self._natural_frot = None if d["natural_frot"] is None else float(d["natural_frot"])
         self._previous_lags_c = None if d["previous_lags_c"] is None else np.array(d["previous_lags_c"])
@@ -241,11 +270,53 @@ class GaussContactProblem(InterfaceProblem):
         nn, nv = op.nn, op.nv
         phi = self.space.functions(el.shape_linear(xi))
         lam = np.einsum("kpa,ka->kp", phi, ve[:, 2 * nn:2 * nn + nv])
-        fric = np.einsum("kpa,ka->kp", phi, ve[:, 2 * nn + nv:])
+        fric = np.einsum("kpa,ka->kp", phi, ve[:, 2 * nn + nv:])            # 2-D: one component
         return {"LAGS_C": lam,
                 "LAGS_F1": gauss_point.semi_multiplier(self.law, gauss_point.threshold(lam), fric),
                 "contact": self._state.chi[:, near].astype(float),
                 "sliding": terms["slip"][:, near].astype(float)}
+
+    def surface_values(self, x: PETSc.Vec, xi: FloatArray, thresholds_from_x: bool = False
+                       ) -> dict[str, FloatArray]:
+        """3-D: the interface fields at parent reference points ``xi (k, p, 3)`` of the
+        interface cells (see :meth:`InterfaceProblem.surface_values`): LAGS_C (Pa) and the
+        friction dofs interpolated with the multiplier functions; LAGS_F1, LAGS_F2 the
+        semi-multipliers (with the traction unknown: its components over mu s(x), s(x) the
+        threshold of the interpolated LAGS_C, as in 2-D); T (Pa) the traction's magnitude,
+        mu |s(x)| |(LAGS_F1, LAGS_F2)|; contact and sliding (1/0) the statuses of the element's
+        nearest Gauss point.  ``thresholds_from_x`` changes nothing: the thresholds of the
+        results are those of the interpolated LAGS_C already."""
+        op, law = self._op, self.law
+        out = self._jumps_at(x, xi)
+        ve = op.element_values(x)
+        phi = self.space.functions(op.mesh.element.shape_linear(xi))                # (k, p, m)
+        nh, nv = op.d * op.nn, op.nv
+        lam = np.einsum("kpa,ka->kp", phi, ve[:, nh:nh + nv])
+        F = np.stack([np.einsum("kpa,ka->kp", phi, ve[:, nh + (c + 1) * nv:nh + (c + 2) * nv])
+                      for c in range(self._nf)], axis=-1)                           # (k, p, 2)
+        s = gauss_point.threshold(lam)
+        semi = gauss_point.semi_multiplier(law, s, F)
+        T = gauss_point.magnitude(F if law.unknown == "traction" else np.abs(law.mu * s)[..., None] * F)
+        near = self._nearest(xi)
+        rows = np.arange(len(xi))[:, None]
+        slip = op.terms(x, self._state)["slip"]
+        out.update({"LAGS_C": lam, "LAGS_F1": semi[..., 0], "LAGS_F2": semi[..., 1], "T": T,
+                    "contact": self._state.chi[rows, near].astype(float),
+                    "sliding": slip[rows, near].astype(float)})
+        return out
+
+    def _nearest(self, xi: FloatArray, batch: int = 256) -> IntArray:
+        """``(k, p)``: the Gauss point of non-zero weight of each element nearest (in the
+        parent's reference coordinates) to each of the points ``xi (k, p, d)``; by batches of
+        ``batch`` elements (the distances are ``(batch, p, ng)``)."""
+        pts = self.points
+        out = np.zeros(xi.shape[:2], np.int64)
+        for lo in range(0, len(xi), batch):
+            a, b, w = xi[lo:lo + batch], pts.xi[lo:lo + batch], pts.w[lo:lo + batch]
+            d2 = (np.einsum("kpi,kpi->kp", a, a)[:, :, None] + np.einsum("kqi,kqi->kq", b, b)[:, None, :]
+                  - 2.0 * np.einsum("kpi,kqi->kpq", a, b))
+            out[lo:lo + batch] = np.where(w[:, None, :] != 0, d2, np.inf).argmin(axis=2)
+        return out
 
     def summary(self) -> dict[str, Any]:
         return self.space.summary()

@@ -48,15 +48,17 @@ class PointState:
 
     ``chi``: contact status (1 in contact); ``s``: friction threshold (Pa,
     negative in compression); ``held``: friction statuses imposed on the points
-    (0 stick, +-1 slip in that direction, NaN free) or None; ``unbounded``:
-    friction without bound (every point in contact sticks).
+    ``(k, ng, nf)`` (0 stick, a unit direction in the tangent basis: slip along it, NaN
+    free; nf = d - 1) or None; ``unbounded``: friction without bound (every point in
+    contact sticks); ``ut0``: the tangential jumps ``(k, ng, nf)`` (m) at the start of the
+    load step (None: 0).
     """
 
     chi: np.ndarray
     s: np.ndarray
     held: np.ndarray | None = None
     unbounded: bool = False
-    ut0: np.ndarray | None = None     # tangential jump at the start of the load step (None: 0)
+    ut0: np.ndarray | None = None
 
     def copy(self) -> PointState:
         return dataclasses.replace(self, chi=self.chi.copy(), s=self.s.copy(),
@@ -121,17 +123,18 @@ class InterfaceOperator:
 
     # -- kinematics ---------------------------------------------------------
     def point_fields(self, ve: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-        """Jump components, gap, tangential jump, LAGS_C, LAGS_F1 at the Gauss points."""
-        nn, nv = self.nn, self.nv
-        hx, hy = ve[:, :nn], ve[:, nn:2 * nn]
-        lam_v, Lam_v = ve[:, 2 * nn:2 * nn + nv], ve[:, 2 * nn + nv:]
-        jx = 2.0 * np.einsum("kqa,ka->kq", self.N, hx)
-        jy = 2.0 * np.einsum("kqa,ka->kq", self.N, hy)
-        n, t = self.pts.normal, self.tangents[..., 0]
-        g = jx * n[..., 0] + jy * n[..., 1]
-        ut = jx * t[..., 0] + jy * t[..., 1]
-        lam = np.einsum("kqa,ka->kq", self.phi, lam_v)
-        Lam = np.einsum("kqa,ka->kq", self.phi, Lam_v)
+        """The fields at the Gauss points from the element values ``ve (k, nd)``: the gap
+        ``g = [u].n`` (m) ``(k, ng)``, the tangential jumps ``ut = [u].t_c`` (m) ``(k, ng, nf)``
+        (nf = d - 1: 2-D code_aster's tau, 3-D t1, t2), LAGS_C (Pa) ``(k, ng)`` and the friction
+        dofs' field ``(k, ng, nf)`` (LAGS_F1 [, LAGS_F2], or the traction's components, Pa)."""
+        nn, nv, d = self.nn, self.nv, self.d
+        jump = [2.0 * np.einsum("kqa,ka->kq", self.N, ve[:, i * nn:(i + 1) * nn]) for i in range(d)]
+        g = _dot(jump, self.pts.normal)
+        ut = np.stack([_dot(jump, self.tangents[..., c]) for c in range(d - 1)], axis=-1)
+        lam = np.einsum("kqa,ka->kq", self.phi, ve[:, d * nn:d * nn + nv])
+        start = d * nn + nv
+        Lam = np.stack([np.einsum("kqa,ka->kq", self.phi, ve[:, start + c * nv:start + (c + 1) * nv])
+                        for c in range(d - 1)], axis=-1)
         return g, ut, lam, Lam
 
     def normal_operator(self) -> FloatArray:
@@ -173,17 +176,15 @@ class InterfaceOperator:
         N2 = 2.0 * self.N * self.enr[:, None, :]
         return np.concatenate([N2 * v[..., i:i + 1] for i in range(self.d)], axis=2)
 
-    def _operators(self) -> tuple[FloatArray, FloatArray]:
-        """``a_n, a_t (k, ng, 2 nn)``: d g / d h and d ut / d h."""
-        N2 = 2.0 * self.N * self.enr[:, None, :]
-        n, t = self.pts.normal, self.tangents[..., 0]
-        a_n = np.concatenate([N2 * n[..., :1], N2 * n[..., 1:]], axis=2)
-        a_t = np.concatenate([N2 * t[..., :1], N2 * t[..., 1:]], axis=2)
-        return a_n, a_t
+    def _operators(self) -> tuple[FloatArray, list[FloatArray]]:
+        """``a_n (k, ng, d nn)`` and ``[a_t]`` (one per tangent): d g / d h and d ut_c / d h."""
+        return self.normal_operator(), self.tangential_operators()
 
     # -- residual and tangent -------------------------------------------------
     def terms(self, x: PETSc.Vec, state: PointState) -> dict[str, FloatArray]:
-        """Point terms of the law at ``x`` for the statuses and thresholds of ``state``."""
+        """Point terms of the law at ``x`` for the statuses and thresholds of ``state``
+        (:func:`~xfemcontact.contact.gauss_point.disc_terms`: friction entries per component,
+        ``(k, ng, nf)`` and ``(k, ng, nf, nf)``)."""
         law = self.law
         assert law is not None                   # point terms: a Gauss-point law
         g, ut, lam, Lam = self.point_fields(self.element_values(x))
@@ -193,43 +194,59 @@ class InterfaceOperator:
         if state.unbounded:
             # held in stick, the solution does not depend on s; mu s = -1 Pa makes
             # LAGS_F1 the tangential traction in Pa meanwhile
-            s, held = np.full(s.shape, -1.0 / law.mu), np.zeros(s.shape)
+            s, held = np.full(s.shape, -1.0 / law.mu), np.zeros(ut.shape)
         return claw.point_terms(law, state.chi, s, g, ut, lam, Lam, held)
 
     def add_residual(self, x: PETSc.Vec, f: PETSc.Vec, state: PointState) -> None:
-        """``f += `` the interface residual at ``x`` (ADD_VALUES, then assembled)."""
+        """``f += `` the interface residual at ``x`` (ADD_VALUES, then assembled): on the jump
+        dofs sum_q w (rg a_n + sum_c rt_c a_t,c), on LAGS_C sum_q w rl phi, on the friction
+        dofs of component c sum_q w rL_c phi (N, or N/m on the multipliers' rows)."""
         t = self.terms(x, state)
         w = self.pts.w
         a_n, a_t = self._operators()
-        Rh = np.einsum("kq,kqd->kd", w * t["rg"], a_n) + np.einsum("kq,kqd->kd", w * t["rt"], a_t)
+        Rh = np.einsum("kq,kqd->kd", w * t["rg"], a_n)
+        for c, a in enumerate(a_t):
+            Rh = Rh + np.einsum("kq,kqd->kd", w * t["rt"][..., c], a)
         Rl = np.einsum("kq,kqa->ka", w * t["rl"], self.phi)
-        RL = np.einsum("kq,kqa->ka", w * t["rL"], self.phi)
-        R = np.concatenate([Rh, Rl, RL], axis=1)
+        RL = [np.einsum("kq,kqa->ka", w * t["rL"][..., c], self.phi) for c in range(len(a_t))]
+        R = np.concatenate([Rh, Rl] + RL, axis=1)
         live = self.gidx >= 0           # parallel Vecs refuse negative indices
         f.setValues(self.gidx[live].astype(PETSc.IntType), R[live], addv=PETSc.InsertMode.ADD_VALUES)
         f.assemblyBegin()
         f.assemblyEnd()
 
     def element_matrices(self, x: PETSc.Vec, state: PointState) -> FloatArray:
-        """Interface element tangents ``(k, nd, nd)`` at ``x``."""
+        """Interface element tangents ``(k, nd, nd)`` at ``x`` (symmetric: the law's are).
+        Blocks: jump-jump w (gg a_n a_n + sum_cc' tt_cc' a_c a_c'), jump-LAGS_C w gl a_n phi,
+        jump-friction c' w sum_c tL_cc' a_c phi, LAGS_C-LAGS_C w ll phi phi, friction
+        c-c' w LL_cc' phi phi (one NumPy expression per block and component pair over the
+        batch)."""
         t = self.terms(x, state)
         w = self.pts.w
         a_n, a_t = self._operators()
         phi = self.phi
         k, nd = self.gidx.shape
-        nh = 2 * self.nn
-        nv = self.nv
+        nh, nv, nf = self.d * self.nn, self.nv, len(a_t)
         K = np.zeros((k, nd, nd))
-        K[:, :nh, :nh] = (np.einsum("kq,kqi,kqj->kij", w * t["gg"], a_n, a_n)
-                          + np.einsum("kq,kqi,kqj->kij", w * t["tt"], a_t, a_t))
+        Khh = np.einsum("kq,kqi,kqj->kij", w * t["gg"], a_n, a_n)
+        for c in range(nf):
+            for c2 in range(nf):
+                Khh = Khh + np.einsum("kq,kqi,kqj->kij", w * t["tt"][..., c, c2], a_t[c], a_t[c2])
+        K[:, :nh, :nh] = Khh
         Khl = np.einsum("kq,kqi,kqa->kia", w * t["gl"], a_n, phi)
-        KhL = np.einsum("kq,kqi,kqa->kia", w * t["tL"], a_t, phi)
         K[:, :nh, nh:nh + nv] = Khl
         K[:, nh:nh + nv, :nh] = Khl.transpose(0, 2, 1)
-        K[:, :nh, nh + nv:] = KhL
-        K[:, nh + nv:, :nh] = KhL.transpose(0, 2, 1)
         K[:, nh:nh + nv, nh:nh + nv] = np.einsum("kq,kqa,kqb->kab", w * t["ll"], phi, phi)
-        K[:, nh + nv:, nh + nv:] = np.einsum("kq,kqa,kqb->kab", w * t["LL"], phi, phi)
+        for c2 in range(nf):
+            cols = slice(nh + (c2 + 1) * nv, nh + (c2 + 2) * nv)
+            KhL = np.einsum("kq,kqi,kqa->kia", w * t["tL"][..., 0, c2], a_t[0], phi)
+            for c in range(1, nf):
+                KhL = KhL + np.einsum("kq,kqi,kqa->kia", w * t["tL"][..., c, c2], a_t[c], phi)
+            K[:, :nh, cols] = KhL
+            K[:, cols, :nh] = KhL.transpose(0, 2, 1)
+            for c in range(nf):
+                rows = slice(nh + (c + 1) * nv, nh + (c + 2) * nv)
+                K[:, rows, cols] = np.einsum("kq,kqa,kqb->kab", w * t["LL"][..., c, c2], phi, phi)
         return K
 
     def add_matrices(self, J: PETSc.Mat, K: FloatArray) -> None:
@@ -290,3 +307,12 @@ class InterfaceOperator:
             out["cell"].append(mesh.cell_ids[segs.cells])
             out["end"].append(np.full(len(segs), end))
         return {k: np.concatenate(v) for k, v in out.items()}
+
+
+def _dot(components: list[FloatArray], v: FloatArray) -> FloatArray:
+    """sum_i components[i] v[..., i]: a vector given by its components ``(k, ng)`` each,
+    dotted with unit vectors ``v (k, ng, d)``, summed in order."""
+    out = components[0] * v[..., 0]
+    for i in range(1, len(components)):
+        out = out + components[i] * v[..., i]
+    return out

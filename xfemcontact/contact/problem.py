@@ -285,11 +285,7 @@ class InterfaceProblem:
         :meth:`vertex_values` with the vertex functions; without multipliers they are 0,
         contact is 1 for a bonded interface and 0 for a free one, sliding 0."""
         op = self._op
-        n, basis = op.frame_at(xi)
-        jump = op.jump_at(op.element_values(x), xi)
-        s1, s2 = (np.einsum("kpi,kpi->kp", jump, basis[..., c]) for c in range(2))
-        out = {"gap": np.einsum("kpi,kpi->kp", jump, n), "slip1": s1, "slip2": s2, "slip": np.hypot(s1, s2),
-               "normal": n, "t1": basis[..., 0], "t2": basis[..., 1]}
+        out = self._jumps_at(x, xi)
         vv = self.vertex_values(x, thresholds_from_x)
         if vv is None:
             zero = np.zeros(xi.shape[:2])
@@ -308,6 +304,16 @@ class InterfaceProblem:
                     "contact": np.max(np.where(on, chi[:, None, :], 0.0), axis=-1, initial=0.0),
                     "sliding": np.max(np.where(on, sliding[:, None, :], 0.0), axis=-1, initial=0.0)})
         return out
+
+    def _jumps_at(self, x: PETSc.Vec, xi: FloatArray) -> dict[str, FloatArray]:
+        """3-D: the kinematic part of :meth:`surface_values` at ``xi (k, p, 3)``: gap, slip1,
+        slip2, slip ``(k, p)`` (m), normal, t1, t2 ``(k, p, 3)``."""
+        op = self._op
+        n, basis = op.frame_at(xi)
+        jump = op.jump_at(op.element_values(x), xi)
+        s1, s2 = (np.einsum("kpi,kpi->kp", jump, basis[..., c]) for c in range(2))
+        return {"gap": np.einsum("kpi,kpi->kp", jump, n), "slip1": s1, "slip2": s2, "slip": np.hypot(s1, s2),
+                "normal": n, "t1": basis[..., 0], "t2": basis[..., 1]}
 
     def _end_values(self, x: PETSc.Vec, thresholds_from_x: bool = False) -> EndValues:
         """The law's values at the segment ends (see :meth:`InterfaceOperator.point_values`):
