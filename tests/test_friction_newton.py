@@ -234,3 +234,28 @@ def test_process_without_interface_elements(tmp_path):
     # 3 processes stop at another iterate of the same fixed point, 3e-8 of the pressure off)
     for f, scale in (("LAGS_C", 0.1), ("LAGS_F1", 1.0), ("slip", 1e-6)):
         assert np.abs(a[f][ka] - b[f][kb]).max() <= 1e-6 * scale, f
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cell, mu", [("TETRA10", 0.1), ("HEXA20", 0.05)])
+def test_sphere_partial_slip_after_the_guard(tmp_path, cell, mu):
+    """A sphere under -p I - q e_z e_z (bench/contact3d_sphere.py, N = 6) slips: the guard
+    fires, the threshold loop keeps the slip direction in Newton's tangent (a Tresca problem;
+    with the direction a status its loop did not converge: exit 3 after 98 and 119 Newton
+    iterations), Coulomb's law goes back into Newton, and the answer is admissible at every
+    interface point: LAGS_C <= 0 and |(LAGS_F1, LAGS_F2)| <= 1."""
+    sys.path.insert(0, str(ROOT / "bench"))
+    try:
+        from contact3d_sphere import case
+    finally:
+        sys.path.pop(0)
+    path = tmp_path / "sphere.toml"
+    path.write_text('title = "sphere, partial slip"\n' + case(cell, 6, mu))
+    r = run_ok([path], tmp_path / "o")
+    assert r["multipliers"]["cycle_guards"] >= 1 and r["multipliers"]["coulomb_rearms"] >= 1
+    assert r["iterations"]["newton"] <= 30          # measured: 17 (TETRA10), 25 (HEXA20)
+    v = {k: np.array(a, dtype=float) for k, a in r["interface"].items() if k != "end"}
+    p = np.abs(v["LAGS_C"]).max()
+    assert v["LAGS_C"].max() <= 1e-9 * p
+    assert np.hypot(v["LAGS_F1"], v["LAGS_F2"]).max() <= 1.0 + 1e-9
+
