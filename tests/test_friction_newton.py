@@ -38,6 +38,18 @@ def run_ok(args, out, np_=None):
     return results(out)
 
 
+def central_difference(model, x, d, eps):
+    """(R(x + eps d) - R(x - eps d)) / (2 eps), the residual's derivative along ``d``."""
+    f1, f2 = x.duplicate(), x.duplicate()
+    xp, xm = x.copy(), x.copy()
+    xp.axpy(eps, d)
+    xm.axpy(-eps, d)
+    model.residual(None, xp, f1)
+    model.residual(None, xm, f2)
+    return (f1.getArray() - f2.getArray()) / (2 * eps)
+
+
+
 def test_coupling_is_the_derivative_of_the_residual():
     """At a sliding state the Jacobian (assembled symmetric part plus the coupling) is the
     derivative of the residual: central differences agree to 1e-6 relative."""
@@ -58,7 +70,7 @@ def test_coupling_is_the_derivative_of_the_residual():
     lam_dofs = lam_dofs[(lam_dofs >= lo) & (lam_dofs < hi)]
     d.setValues(lam_dofs, rng.standard_normal(len(lam_dofs)) * 100.0)
     d.assemble()
-    f0, f1, f2 = (x.duplicate() for _ in range(3))
+    f0 = x.duplicate()
     model.residual(None, x, f0)                       # the statuses at x, then commit them
     model.jacobian(None, x, model.K, model.K)
     C = problem.coupling()
@@ -66,13 +78,7 @@ def test_coupling_is_the_derivative_of_the_residual():
     Jd = x.duplicate()
     model.K.mult(d, Jd)
     problem.add_product(C, d, Jd)
-    eps = 1e-7 * x.norm() / d.norm()
-    xp, xm = x.copy(), x.copy()
-    xp.axpy(eps, d)
-    xm.axpy(-eps, d)
-    model.residual(None, xp, f1)
-    model.residual(None, xm, f2)
-    fd = (f1.getArray() - f2.getArray()) / (2 * eps)
+    fd = central_difference(model, x, d, 1e-7 * x.norm() / d.norm())
     jd = Jd.getArray()
     assert np.abs(fd - jd).max() <= 1e-6 * np.abs(jd).max()
     # without the coupling the difference is of the order of the coupling itself
@@ -118,7 +124,7 @@ def test_coupling_is_the_derivative_of_the_residual_in_3d(coulomb_newton):
         dofs = dofs[(dofs >= lo) & (dofs < hi)]
         d.setValues(dofs, rng.standard_normal(len(dofs)) * np.abs(values[dofs - lo]).max())
     d.assemble()
-    f0, f1, f2 = (x.duplicate() for _ in range(3))
+    f0 = x.duplicate()
     model.residual(None, x, f0)
     model.jacobian(None, x, model.K, model.K)
     C = problem.coupling()
@@ -134,13 +140,7 @@ def test_coupling_is_the_derivative_of_the_residual_in_3d(coulomb_newton):
     assert A.getInfo()["nz_used"] == entries
     Jd = x.duplicate()
     A.mult(d, Jd)
-    eps = 1e-6
-    xp, xm = x.copy(), x.copy()
-    xp.axpy(eps, d)
-    xm.axpy(-eps, d)
-    model.residual(None, xp, f1)
-    model.residual(None, xm, f2)
-    fd = (f1.getArray() - f2.getArray()) / (2 * eps)
+    fd = central_difference(model, x, d, 1e-6)
     jd = Jd.getArray()
     assert np.abs(fd - jd).max() <= 1e-6 * np.abs(jd).max()
     Kd = x.duplicate()

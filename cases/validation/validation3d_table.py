@@ -13,10 +13,7 @@ its tests.  With ``--np``, the largest difference of the same interface fields b
 processes and one, over every instant (LAGS_C relative to its largest value).
 """
 import argparse
-import json
-import os
 import pathlib
-import subprocess
 import sys
 import tempfile
 
@@ -31,17 +28,8 @@ CASES = ["ssnv182a_like_hexa20", "ssnv182a_like_tetra10", "ssnv182b_like_hexa20"
          "history_reclose3d_tetra10", "history_turn3d_hexa20", "history_incline_growing3d_tetra10"]
 FIELDS = ("LAGS_C", "LAGS_F1", "LAGS_F2", "gap", "slip")
 
-
-def run(case, out, np_=None):
-    """results.json of ``case`` run into ``out`` (on ``np_`` processes)."""
-    cmd = [sys.executable, "-m", "xfemcontact", "run", str(HERE / f"{case}.toml"), "-o", str(out), "-q"]
-    if np_:
-        cmd = ["mpirun", "-n", str(np_), "--oversubscribe"] + cmd
-    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    p = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, env=env)
-    if p.returncode != 0:
-        sys.exit(f"{case}: exit code {p.returncode}\n{p.stdout}{p.stderr}")
-    return json.loads((out / "results.json").read_text())
+sys.path.insert(0, str(HERE))
+from history_table import run  # noqa: E402  (runs a case of this folder, on np_ processes)
 
 
 def errors(case, res):
