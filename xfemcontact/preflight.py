@@ -21,7 +21,10 @@ no MPI_Abort).  In order:
    ending inside the domain looks like with a normal level set alone; error);
 5. :func:`rigid_body_modes`: the imposed displacements hold every body (the
    whole mesh, or each side of a ``law = "free"`` interface) against
-   translations and rotation;
+   translations and rotation; through an interface that transmits normal forces
+   only (frictionless contact, ``glissiere``), a side held by nothing else must be
+   held by the normals (:func:`xfemcontact.rigid.held_through_normals`: a circular
+   inclusion's rotation, a block's slide along a plane are refused);
 6. :func:`interface_resolution`: how far the interface the mesh represents (the
    zero of the interpolated nodal LN) is from the zero of the level-set formula;
    beyond ``interface.max_offset`` (a fraction of the cell size) the case is
@@ -239,10 +242,25 @@ def _preflight(case: Case, raw: RawMesh) -> Preflight:
                 raise GeometryError(problem)
         check_resolution(case, raw, phi, result)
     law = laws.get(itf.law) if itf is not None and phi is not None else None
-    problem = rigid_body_modes(case, raw, phi, law, interior=interior)
+    problem = rigid_body_modes(case, raw, phi, law, interior=interior) or \
+        _held_through_normals(case, raw, phi, law, result)
     if problem:
         raise CaseError(problem)
     return result
+
+
+def _held_through_normals(case: Case, raw: RawMesh, phi: FloatArray | None,
+                          law: InterfaceLaw | None, result: Preflight) -> str | None:
+    """:func:`xfemcontact.rigid.held_through_normals` when the interface transmits normal
+    forces only (2-D and 3-D): its error, its warnings added to ``result``."""
+    from xfemcontact import rigid
+
+    words = law.normal_only(case) if law is not None and phi is not None else None
+    if not words or phi is None:
+        return None
+    error, warnings = rigid.held_through_normals(case, raw, phi, words)
+    result.warnings.extend(warnings)
+    return error
 
 
 def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -> Preflight:
@@ -283,7 +301,8 @@ def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -
                                     f"a surface with LN < 0 on one side and LN > 0 on the other")
         check_resolution(case, raw, phi, result)
     law = laws.get(itf.law) if itf is not None and phi is not None else None
-    problem = rigid.check(case, raw, phi if law is not None and law.separate_bodies else None)
+    problem = rigid.check(case, raw, phi if law is not None and law.separate_bodies else None) or \
+        _held_through_normals(case, raw, phi, law, result)
     if problem:
         raise CaseError(problem)
     return result

@@ -13,7 +13,10 @@ A law is an object with a few facts the rest of the package asks about
 * ``frictional``: it takes Coulomb friction (``[contact] frottement = "COULOMB"``;
   a frictionless law refuses it when the case is read);
 * ``problem(setup)``: the interface problem the solver and the
-  post-processing use.
+  post-processing use;
+* ``normal_only(case)``: whether, for ``case``, it transmits normal forces only (no
+  friction): then a side held by nothing else must be held by the normals alone
+  (:func:`xfemcontact.rigid.held_through_normals`).
 """
 from __future__ import annotations
 
@@ -53,6 +56,12 @@ class InterfaceLaw:
         """The :class:`~xfemcontact.contact.problem.InterfaceProblem` of the interface
         for ``setup`` (a :class:`~xfemcontact.contact.problem.InterfaceSetup`)."""
         raise NotImplementedError
+
+    def normal_only(self, case: Any) -> str | None:
+        """How ``case`` makes the interface transmit normal forces only, in the words of
+        the case file (for messages), or None when it transmits tangential ones too or
+        none at all."""
+        return None
 
     def __repr__(self) -> str:
         return f"<interface law {self.name!r}>"

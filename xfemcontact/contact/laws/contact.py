@@ -44,6 +44,11 @@ class Contact(InterfaceLaw):
         return space.build(mesh, geo.segments(), case.contact.algo_lagr,
                            mesh.element.shape_linear(points.xi), points.w)
 
+    def normal_only(self, case: Any) -> str | None:
+        if case.contact.friction:
+            return None
+        return "contact without friction (contact.frottement = \"SANS\" or coulomb = 0)"
+
     def problem(self, setup: InterfaceSetup) -> InterfaceProblem:
         if setup.case.contact.integration == "GAUSS":
             from xfemcontact.contact.gauss_problem import GaussContactProblem

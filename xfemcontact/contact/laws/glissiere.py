@@ -21,7 +21,7 @@ then ends: statuses only go 0 -> 1.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from xfemcontact.contact.laws.contact import Contact
 
@@ -35,6 +35,9 @@ class Glissiere(Contact):
     name = "glissiere"
     doc = "bilateral sliding (code_aster's GLISSIERE): contact once made is kept, frictionless"
     frictional = False
+
+    def normal_only(self, case: Any) -> str | None:
+        return "law = \"glissiere\" (frictionless)"
 
     def problem(self, setup: InterfaceSetup) -> InterfaceProblem:
         problem = super().problem(setup)
