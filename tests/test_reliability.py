@@ -362,6 +362,19 @@ def test_petsc_options_in_use_are_accepted(petsc_options):
                                 "-pc_type", "lu", "-snes_view", "-mat_mumps_icntl_14", "50"))
 
 
+def test_every_documented_mumps_ordering_runs(tmp_path):
+    # -mat_mumps_icntl_7 4 (PORD) killed every run with exit status 255: the options were
+    # tried on a 2 x 2 system, a graph PORD cannot order ("no valid number of stages in
+    # multisector"); the README lists 0, 2, 4, 6 and 7
+    case = write_case(tmp_path, GOOD)
+    for ordering in (0, 2, 4, 6, 7):
+        out = tmp_path / f"out{ordering}"
+        r = run_cli(["run", case, "-o", out, "-mat_mumps_icntl_7", ordering])
+        assert r.returncode == 0, (ordering, r.stderr)
+        used = results(out)["linear_solver"]["mumps"]["ordering"]
+        assert used == ordering or ordering == 7, (ordering, used)
+
+
 @pytest.mark.parametrize("argv, expected", [
     (("-xfc_friction_unknown", "nonsense"),
      "-xfc_friction_unknown nonsense: unknown value (expected one of LAGS_F1, TRACTION)"),

@@ -255,7 +255,7 @@ _LOGGED_CLASSES = ("Matrix", "Vector", "Krylov Solver", "Preconditioner", "SNES"
 
 
 def _dummy_failure() -> str | None:
-    """What PETSc says when it sets up our solvers with the options on a 2 x 2 system
+    """What PETSc says when it sets up our solvers with the options on a small system
     (one process), or None when it accepts them.  Not logged (``-log_view`` counts the
     run's own factorisations only)."""
     classes = [PETSc.Log.Class(name) for name in _LOGGED_CLASSES]
@@ -304,15 +304,24 @@ class _NoLoop:
         pass
 
 
+#: size of the system the options are tried on: MUMPS's PORD ordering (``-mat_mumps_icntl_7
+#: 4``) cannot order a graph of 2 vertices ("no valid number of stages in multisector") and
+#: ends the process (exit status 255, before this was 4 every run given that option died)
+DUMMY_SIZE = 4
+
+
 def _dummy_matrix() -> PETSc.Mat:
+    """A small symmetric positive definite tridiagonal matrix (:data:`DUMMY_SIZE`)."""
     symmetric = matrix_format() == "sbaij"
-    A = (PETSc.Mat().createSBAIJ(2, 1, nnz=2, comm=PETSc.COMM_SELF) if symmetric else
-         PETSc.Mat().createAIJ(2, nnz=2, comm=PETSc.COMM_SELF))
-    A.setValue(0, 0, 4.0)
-    A.setValue(1, 1, 3.0)
-    A.setValue(0, 1, 1.0)
-    if not symmetric:
-        A.setValue(1, 0, 1.0)
+    n = DUMMY_SIZE
+    A = (PETSc.Mat().createSBAIJ(n, 1, nnz=2, comm=PETSc.COMM_SELF) if symmetric else
+         PETSc.Mat().createAIJ(n, nnz=3, comm=PETSc.COMM_SELF))
+    for i in range(n):
+        A.setValue(i, i, 4.0)
+        if i + 1 < n:
+            A.setValue(i, i + 1, -1.0)
+            if not symmetric:
+                A.setValue(i + 1, i, -1.0)
     A.assemble()
     return A
 
