@@ -174,8 +174,6 @@ def test_straight_without_coefficients(tmp_path, name):
 
 # --- slow: the rest of the table at the natural coefficients ---------------------------------
 SLOW_XFAIL = {
-    "limit-D_t6s_a+00_vtx_nu3c": "interface 1e-3 h above a vertex row (TRIA6): gap and slip off by 3e-7 and "
-                                 "5e-7 of the slip at every coefficient (sliver conditioning)",
     "limit-D_q8s_a-10_vfit_nu0": "interface 1e-7 h from a vertex, fitted onto it (readjustment rule 2): LAGS_C "
                                  "off by 1.4e-5 and gap by 3e-7 of the slip when the interface slides",
 }

@@ -175,9 +175,9 @@ STRAIGHT = {
     "y=0.3 on edges (round-off)": ("y - 0.3", (0.0, 1.0, -0.3), 0.0),
     "y=x diagonal (vertices)": ("y - x", (-1.0, 1.0, 0.0), 0.0),
     "y=2x-0.5 vertices+mid nodes": ("y - 2*x + 0.5", (-2.0, 1.0, 0.5), 0.0),
-    **{f"row + 1e-{k} h": (*_row(10.0 ** -k * H), 10.0 ** -k * H) for k in (3, 6, 9)},
+    **{f"row + 1e-{k} h": (*_row(10.0 ** -k * H), 10.0 ** -k * H) for k in (3, 4, 5, 6, 9)},
     "row + 2e-6 h": (*_row(2e-6 * H), 2e-6 * H),                # just above the fit threshold
-    **{f"vertex + 1e-{k} h": (*_slanted(10.0 ** -k * H), 10.0 ** -k * H) for k in (3, 6, 9)},
+    **{f"vertex + 1e-{k} h": (*_slanted(10.0 ** -k * H), 10.0 ** -k * H) for k in (3, 4, 5, 6, 9)},
 }
 ON_EDGES = {"y=0.5 on edges (vertex row)", "y=0.3 on edges (round-off)"}
 

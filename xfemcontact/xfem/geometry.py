@@ -14,11 +14,21 @@ empty.  We measure it by the ratio of the stiffness-like diagonal terms
     r_j = int_{opposite side} |grad N_j|^2  /  int_{support} |grad N_j|^2
 
 (the ratio of the H1X diagonal term to the DX one for an isotropic material)
-and drop the Heaviside dofs of nodes with ``r_j < DROP_RATIO``.  Readjustment
-already sends the interface through a vertex when it passes within 1e-6 h of
-it, so only supports thinner than that (ratios below about 1e-12) are dropped;
-MUMPS' own scaling copes with the remaining small ratios (the condition
-estimates in the tests show it).
+and drop the Heaviside dofs of nodes with ``r_j < DROP_RATIO``.  A dropped node
+takes its function out of the enriched space, so a constant jump (a slip, an
+opening) is no longer reproduced on the thin part of its support: the price is
+an error of the order of the jump times (d / h)^2, d the distance from the
+interface to the node's cell corner.  The ratio falls like (d / h)^4 for the
+nodes of a cell whose corner the interface clips (measured at d = 1e-3 h: 5e-13
+on TRIA6 above a row of vertices, 7e-12 on QUAD8 past one vertex; tests/test_xfem_bulk.py),
+like d / h elsewhere (QUAD8 above a row of vertices: 1.2e-4),
+and readjustment already sends the interface through a vertex within 1e-6 h of
+it.  DROP_RATIO = 1e-16 keeps every node down to d of about 1e-4 h; with 1e-12
+the TRIA6 nodes at d = 1e-3 h were dropped and a slip of 8e-4 m came out 2.5e-10
+m off in the gap (bench/campaign.py, limit-D_t6s_a+00_vtx); keeping every node
+(1e-26) left a slanted interface 1e-6 h from a QUAD8 vertex with a
+Jacobi-scaled condition number of 2.5e15 (1e-16: at most 2.3e13 over the sweep of
+tests/test_xfem_bulk.py, MUMPS' own scaling copes with that).
 
 One code for both dimensions: only the cutting differs.  In 2-D the cut cells
 are cut by :mod:`xfemcontact.xfem.cut` into curved sub-triangles and interface
@@ -48,7 +58,7 @@ if TYPE_CHECKING:
     IntArray = NDArray[np.int64]
     BoolArray = NDArray[np.bool_]
 
-DROP_RATIO = 1e-12
+DROP_RATIO = 1e-16
 
 
 @dataclass
