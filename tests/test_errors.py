@@ -645,3 +645,23 @@ def test_level_set_field_of_the_mesh_file(tmp_path):
     assert pre.warnings == [f"{case.source}: interface.level_set_field: the interface does not "
                             f"meet the domain (LN > 0 at every node, from 1 to 11): solving "
                             f"without interface"]
+
+
+def test_mumps_parallel_analysis_without_its_ordering_says_so(tmp_path):
+    # Debian's MUMPS has neither PT-Scotch nor ParMETIS for its parallel analysis: INFOG(1)
+    # = -38, which the message now explains
+    line, d = _run_not_converged(tmp_path, CONTACT, "-mat_mumps_icntl_28", "2", "-mat_mumps_icntl_29", "1")
+    assert d["linear_solver"]["mumps_infog1"] == -38
+    assert "MUMPS INFOG(1) = -38): the parallel analysis (-mat_mumps_icntl_28 2) needs PT-Scotch" in line
+
+
+def test_superlu_dist_factorises_a_contact_case(tmp_path):
+    # SuperLU_DIST pivots statically: the zero diagonal block of the contact multipliers
+    # stopped it (DIVERGED_PCSETUP_FAILED) until tiny pivots were replaced by default
+    out = tmp_path / "out"
+    text = edited(CONTACT, ('frottement = "COULOMB"', 'frottement = "SANS"'))
+    proc = run_cli(["run", write_case(tmp_path, text), "-o", out, "-pc_type", "lu",
+                    "-pc_factor_mat_solver_type", "superlu_dist"], timeout=TIMEOUT)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    r = results(out)
+    assert r["linear_solver"]["solver"] == "superlu_dist" and all(t["ok"] for t in r["tests"])

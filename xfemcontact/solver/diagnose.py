@@ -36,6 +36,9 @@ _MUMPS_HINTS = {
     -10: "MUMPS found the matrix numerically singular: check the supports and the interface law",
     -13: "MUMPS could not allocate memory: use more processes or a machine with more memory",
     -19: "MUMPS hit the memory limit -mat_mumps_icntl_23: raise it",
+    -38: "the parallel analysis (-mat_mumps_icntl_28 2) needs PT-Scotch or ParMETIS inside MUMPS, "
+         "which the MUMPS linked here lacks (Debian's libmumps-ptscotch has PT-Scotch): leave "
+         "-mat_mumps_icntl_28 at 1 (sequential analysis, the default)",
 }
 
 

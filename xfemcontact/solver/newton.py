@@ -34,6 +34,12 @@ DEFAULT_OPTIONS = {
     "pc_factor_mat_solver_type": "mumps",
     "snes_linesearch_type": "basic",
     "mat_mumps_icntl_24": "0",
+    # SuperLU_DIST (-pc_type lu -pc_factor_mat_solver_type superlu_dist) pivots statically:
+    # without this the zero diagonal block of the contact multipliers stops its factorisation
+    # (DIVERGED_PCSETUP_FAILED on every contact case); with it a tiny pivot is replaced and
+    # Newton, whose residual is exact, corrects the perturbed factor (cases/validation/
+    # frictionless.toml: 8 Newton iterations, as with MUMPS)
+    "mat_superlu_dist_replacetinypivot": "1",
 }
 
 
