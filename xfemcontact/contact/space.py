@@ -57,7 +57,16 @@ node index of the class).
 In 3-D (:func:`build3d`) the interface elements are the cut cells (their facets)
 and the cells owning an interface lying on a face; the raw space and step 1 are
 the same (P1 / Q1 vertex functions of TETRA10 / HEXA20, weak vertices
-extrapolated from their nearest full cell).  Step 2 is done on the trace Gram
+extrapolated from their nearest full cell), with one more kind of root: a *root
+face*, a face of an interface cell whose vertices all carry multipliers, whose
+TRIA3 / QUAD4 field a weak vertex takes at its projection on the face where the
+face is ``FACE_ROOT_RATIO`` times nearer than any full cell, or no cell is full
+(:func:`_aggregation3d`).  That is an interface lying along a plane of vertices (a
+thin cap a few hundredths of h above it, bench/contact3d_caps.py): the cells on
+either side hold weak vertices only, whose traces are nearly those of the plane's
+vertices times a small factor; left carriers, as before, they were weakly
+controlled modes the merges below did not remove (dofs up to -4.3e6 Pa for -100,
+6 to 14 of them open on 3 x 3 x 3 and 6 x 6 x 6 boxes).  Step 2 is done on the trace Gram
 matrix directly, with merges only: on each set of carriers sharing interface
 elements the eigenvectors of the (scaled) Gram matrix below ``KERNEL_3D`` span
 the kernel; crossed edges (nearest their middle first, then the least ids), then
