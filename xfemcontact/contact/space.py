@@ -57,7 +57,16 @@ node index of the class).
 In 3-D (:func:`build3d`) the interface elements are the cut cells (their facets)
 and the cells owning an interface lying on a face; the raw space and step 1 are
 the same (P1 / Q1 vertex functions of TETRA10 / HEXA20, weak vertices
-extrapolated from their nearest full cell).  Step 2 is done on the trace Gram
+extrapolated from their nearest full cell), with one more kind of root: a *root
+face*, a face of an interface cell whose vertices all carry multipliers, whose
+TRIA3 / QUAD4 field a weak vertex takes at its projection on the face where the
+face is ``FACE_ROOT_RATIO`` times nearer than any full cell, or no cell is full
+(:func:`_aggregation3d`).  That is an interface lying along a plane of vertices (a
+thin cap a few hundredths of h above it, bench/contact3d_caps.py): the cells on
+either side hold weak vertices only, whose traces are nearly those of the plane's
+vertices times a small factor; left carriers, as before, they were weakly
+controlled modes the merges below did not remove (dofs up to -4.3e6 Pa for -100,
+6 to 14 of them open on 3 x 3 x 3 and 6 x 6 x 6 boxes).  Step 2 is done on the trace Gram
 matrix directly, with merges only: on each set of carriers sharing interface
 elements the eigenvectors of the (scaled) Gram matrix below ``KERNEL_3D`` span
 the kernel; crossed edges (nearest their middle first, then the least ids), then
@@ -87,6 +96,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from xfemcontact.fem import elements
+
 if TYPE_CHECKING:
     from numpy.typing import NDArray
 
@@ -111,6 +122,18 @@ WEAK = {"QUAD8": 0.02, "TRIA6": 0.05, "HEXA20": 0.05, "TETRA10": 0.1}
 #: point values of -150 to -100 Pa (weakly controlled dofs: a dof opened, another slid
 #: with mu = 10, and the threshold loop did not converge on HEXA20 N = 4), max error
 #: 13.7 Pa on TETRA10 N = 8; with 0.05 / 0.1 -215 to -48, and 3.1 Pa)
+
+#: 3-D: a weak vertex extrapolates its nearest root face (:func:`_face_aggregation`)
+#: instead of its nearest full cell only when the cell's centroid is this many times
+#: farther than the face's.  Measured (bench/contact3d_caps.py, bench/contact3d_sphere.py):
+#: where no interface cell is full (caps just above a plane of vertices) faces are the only
+#: roots and remove the weakly controlled dofs; faces in competition with full cells on
+#: equal terms (ratio 1) made the sphere's L2 error of LAGS_C 1.153 Pa instead of 1.027 on
+#: HEXA20 N = 4 (0.349 / 0.335 at N = 8; a face's extrapolation has no normal gradient,
+#: which a curved interface sees); with 2 the sphere (N = 4, 8) was unchanged but the cap
+#: R = 2 m on HEXA20 N = 6 (which has full cells) went from 1.3e-4 p to 3.9e-4 p; with 4
+#: every case of both benches with a full cell near its weak vertices is unchanged
+FACE_ROOT_RATIO = 4.0
 
 #: relative singular value below which a direction of the crossed edges around a gradient
 #: tie is left out of its gradient (step 3).  Nearly parallel edges (distorted quadrangles)
@@ -270,7 +293,10 @@ def _raw_space(mesh: LocalMesh, topo: SegmentTopology, local_w: FloatArray,
     weight = np.zeros(len(ids))
     np.maximum.at(weight, np.searchsorted(ids, cverts.ravel()), cw.ravel())
     strong = weight >= WEAK[el.name] if algo != "NON" else np.ones(len(ids), bool)
-    ext = _aggregation(el, ids, xv, strong, cverts, cx)          # weak id -> (root ids, weights)
+    if mesh.dim == 3:
+        ext = _aggregation3d(el, ids, xv, strong, weight, cverts, cx)
+    else:
+        ext = _aggregation(el, ids, xv, strong, cverts, cx)      # weak id -> (root ids, weights)
     if mesh.dim == 3 and not ext and not strong.all():
         # no interface cell has all its vertices strong (a plane through vertices of a
         # few cells): the weak vertices whose functions are not zero on the interface
@@ -424,6 +450,73 @@ def _aggregation(el: Element, ids: IntArray, xv: FloatArray, strong: BoolArray, 
     nearest = roots[np.lexsort((key, d), axis=1)[:, 0]]
     wts = el.shape_linear(el.linear_reference(cx[nearest], xv[weak]))          # (w, nv)
     return {ids[i]: (cverts[j], w) for i, j, w in zip(weak, nearest, wts)}
+
+
+def _aggregation3d(el: Element, ids: IntArray, xv: FloatArray, strong: BoolArray, weight: FloatArray,
+                   cverts: IntArray, cx: FloatArray) -> Combinations:
+    """3-D step 1: every weak vertex extrapolates its nearest root, a full interface cell
+    (:func:`_aggregation`) or a root face (:func:`_face_aggregation`), nearest by the
+    distance from the weak vertex to the root's centroid, a face only where it is
+    :data:`FACE_ROOT_RATIO` times nearer than the nearest full cell (or no cell is full):
+    an interface lying along a plane of vertices, whose cells on either side hold weak
+    vertices."""
+    ext = _aggregation(el, ids, xv, strong, cverts, cx)
+    dist: dict[int, float] = {}
+    for g, comb in _face_aggregation(el, ids, xv, strong, weight, cverts, cx, dist).items():
+        if g in ext:
+            roots = np.searchsorted(ids, ext[g][0])
+            if FACE_ROOT_RATIO * dist[g] >= np.linalg.norm(xv[roots].mean(axis=0) - xv[np.searchsorted(ids, g)]):
+                continue
+        ext[g] = comb
+    return ext
+
+
+def _face_aggregation(el: Element, ids: IntArray, xv: FloatArray, strong: BoolArray,
+                      weight: FloatArray, cverts: IntArray, cx: FloatArray,
+                      dist: dict[int, float] | None = None) -> Combinations:
+    """3-D: for every weak vertex, the field of its nearest *root face*, a face of an
+    interface cell whose vertices all carry multipliers: the face's own linear companion
+    functions (TRIA3 / QUAD4) at the projection of the weak vertex on the face's plane (no
+    variation along its normal).  ``dist`` (if given) receives the distances (m) from each
+    weak vertex to its face's centroid.
+
+    This is the interface lying along a plane of vertices (a thin cap a few hundredths of
+    h above it): the cells on both sides hold the weak vertices (their functions at most
+    a few hundredths on the interface, their traces nearly proportional to those of the
+    plane's vertices), the plane's vertices are the only strong ones, often no cell is
+    full, and the plane's faces carry the interface's multiplier field; a full cell's
+    field, extrapolated, brings a gradient normal to the plane that the interface barely
+    sees.  Nearest by the distance to the face's centroid, then the face whose vertices
+    have the largest summed weight (the face the interface lies along), then the least
+    ids.  Empty where no face is full."""
+    fv = el.faces[:, : {"QUAD8": 4, "TRIA6": 3}[el.face_type]]              # (f, nfv)
+    fverts = cverts[:, fv].reshape(-1, fv.shape[1])                         # (K f, nfv)
+    fx = cx[:, fv].reshape(-1, fv.shape[1], cx.shape[-1])
+    pos = np.searchsorted(ids, fverts)
+    full = np.all(strong[pos], axis=1)
+    weak = np.nonzero(~strong)[0]
+    if not full.any() or not len(weak):
+        return {}
+    fverts, fx, pos = fverts[full], fx[full], pos[full]
+    key, first = np.unique(np.sort(fverts, axis=1), axis=0, return_index=True)    # each face once
+    fverts, fx, pos = fverts[first], fx[first], pos[first]
+    centre = fx.mean(axis=1)
+    d = np.linalg.norm(centre[None, :, :] - xv[weak, None, :], axis=2)            # (w, f)
+    scale = max(float(np.ptp(xv, axis=0).max(initial=0.0)), 1e-300)
+    d = np.round(d / scale, 9)                                                    # ties: equal distances
+    wsum = np.broadcast_to(-weight[pos].sum(axis=1), d.shape)
+    low = np.broadcast_to(key[:, 0], d.shape)
+    nearest = np.lexsort((low, wsum, d), axis=1)[:, 0]
+    face = elements.element(el.face_type)
+    out: Combinations = {}
+    if dist is not None:
+        dist.update({int(ids[i]): float(d[n_, j]) * scale for n_, (i, j) in enumerate(zip(weak, nearest))})
+    for i, j in zip(weak, nearest):
+        c = fx[j].mean(axis=0)
+        basis = np.linalg.svd(fx[j] - c)[2][:2]                                  # the face's plane
+        xi = face.linear_reference(((fx[j] - c) @ basis.T)[None], ((xv[i] - c) @ basis.T)[None])
+        out[ids[i]] = (fverts[j], face.shape_linear(xi)[0])
+    return out
 
 
 def convex_aggregation(ext: Combinations, xv: FloatArray, ids: IntArray) -> Combinations:

@@ -414,6 +414,52 @@ def split_double_crossings(el: Element, phi_cell: FloatArray, V: FloatArray, pv:
     return V, pv, live
 
 
+def face_diagonal_dips(el: Element, phi_cell: FloatArray, chunk: int = 2048) -> BoolArray:
+    """Cells ``(k,)`` (node values ``phi_cell (k, nn)``) one of whose face diagonals that
+    are edges of the reference tetrahedra (HEXA20: the Kuhn split's; TETRA10 has none) has
+    ends of one sign while LN has the other inside it, by the test of
+    :func:`split_double_crossings` (the extremum of the quadratic through the ends and the
+    middle, :data:`DIP_SAMPLES` points; 1e-12 of the cell's largest |LN|).
+
+    A cap crossing a face without crossing its edges (a sphere whose top is a few
+    hundredths of h above a plane of vertices, on a coarse mesh): the cell below it, cut,
+    splits the face's diagonal at the cap, and its interface reaches the face there; the
+    cell above, all of whose nodes may have one sign, must be cut too, or the interface
+    has a hole where the cap crosses the face."""
+    k = len(phi_cell)
+    out = np.zeros(k, bool)
+    tets = parent_tets(el)
+    X = el.ref_nodes[: el.nv]
+    pairs = {tuple(sorted((int(t[a]), int(t[b])))) for t in tets for a, b in tt.TET_EDGES}
+    edges = {tuple(sorted(map(int, e[:2]))) for e in el.edges}
+    diag = np.array([p for p in sorted(pairs - edges)
+                     if np.any(np.all(X[list(p)] == X[p[0]], axis=0) & (np.abs(X[p[0]]) == 1))],
+                    dtype=np.int64).reshape(-1, 2)
+    if not len(diag) or not k:
+        return out
+    ts = np.arange(1, DIP_SAMPLES + 1) / (DIP_SAMPLES + 1)
+    xa, xb = X[diag[:, 0]], X[diag[:, 1]]                                       # (e, 3)
+    for lo in range(0, k, chunk):
+        pc = phi_cell[lo:lo + chunk]
+        n = len(pc)
+        fa, fb = pc[:, diag[:, 0]], pc[:, diag[:, 1]]                           # (n, e)
+        tol = 1e-12 * np.abs(pc).max(axis=1)
+        same = (fa >= 0) == (fb >= 0)
+        sgn = np.where(fa >= 0, 1.0, -1.0)
+        fm = phi_at(el, pc, np.broadcast_to(0.5 * (xa + xb), (n,) + xa.shape))
+        A, B = 2 * fa + 2 * fb - 4 * fm, -3 * fa + 4 * fm - fb
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ext = np.where(np.abs(A) > 0, -B / np.where(np.abs(A) > 0, 2 * A, 1.0), 0.5)
+        ext = np.clip(np.nan_to_num(ext, nan=0.5), 1e-3, 1 - 1e-3)
+        t = np.concatenate([ext[..., None], np.broadcast_to(ts, ext.shape + ts.shape)], axis=-1)
+        x = xa[:, None] + t[..., None] * (xb - xa)[:, None]                      # (n, e, s, 3)
+        depth = -sgn[..., None] * phi_at(el, pc, x)
+        dmax = depth.max(axis=-1)
+        dip = same & (dmax > tol[:, None]) & ((sgn > 0) | (dmax > 0))
+        out[lo:lo + chunk] = dip.any(axis=1)
+    return out
+
+
 def _deepest_dips(el: Element, phi_cell: FloatArray, V: FloatArray, pv: FloatArray, tol: FloatArray
                   ) -> tuple[IntArray, FloatArray, FloatArray]:
     """Per tetrahedron, its first edge (:data:`tet_tables.TET_EDGES` order) whose ends have

@@ -70,7 +70,8 @@ def build(mesh: LocalMesh, phi: FloatArray) -> Geometry3D:
     if mesh.dim != 3:
         raise ValueError("geometry3d is for 3-D meshes (xfemcontact.xfem.geometry for 2-D)")
     phi, info = levelset.readjust(mesh, phi, lift_double_crossings=False)
-    side = levelset.classify(mesh, phi, levelset.double_crossed_cells(mesh, phi))
+    cut = levelset.double_crossed_cells(mesh, phi) | cut3d.face_diagonal_dips(mesh.element, phi[mesh.cell_nodes])
+    side = levelset.classify(mesh, phi, cut)
     cells = np.nonzero(side == 0)[0]
     subs, facets, bad, off = cut3d.cut_cells(mesh.element, phi[mesh.cell_nodes[cells]], cells)
     if bad.any():

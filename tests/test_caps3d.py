@@ -1,0 +1,78 @@
+"""Thin spherical caps just above a plane of vertices (issue 21; bench/contact3d_caps.py).
+
+The sphere of radius R centred at (0.5, 0.5, 0.34 - R) in the unit box of 3 x 3 x 3 cells:
+its top is 0.02 h above the vertex plane z = 1/3.  Under a uniform pressure (sigma = -p
+I) LAGS_C = -p at every interface point.  Before: R = 2 m on HEXA20 crossed the face z =
+1/3 of the middle cell without crossing its edges and the cell above was not cut (a hole
+of 0.083 m^2 in the interface, 15 dofs open, LAGS_C 0.69 p off); R = 20 m had no full cell
+(dofs up to -1.6e4 Pa, 6 to 10 dofs open).
+"""
+import numpy as np
+import pytest
+
+from conftest import write_case
+from xfemcontact._petsc import PETSc
+from xfemcontact.case import load_case
+from xfemcontact.model import Model
+
+P = 100.0
+
+
+def cap(cell, radius, top=0.34, n=3):
+    return f"""
+        [mesh]
+        box = {{nx = {n}, ny = {n}, nz = {n}, x = [0, 1], y = [0, 1], z = [0, 1], cell = "{cell}"}}
+        [material]
+        E = 2.0e5
+        nu = 0.3
+        model = "3D"
+        [interface]
+        level_set = "sqrt((x - 0.5)**2 + (y - 0.5)**2 + (z - ({top} - {radius}))**2) - {radius}"
+        law = "contact"
+        [contact]
+        frottement = "SANS"
+        [[dirichlet]]
+        group = "left"
+        DX = 0
+        [[dirichlet]]
+        group = "front"
+        DY = 0
+        [[dirichlet]]
+        group = "bottom"
+        DZ = 0
+        [[traction]]
+        group = ["right", "back", "top"]
+        PRES = {P}
+        """
+
+
+def cap_area(radius, top=0.34, n=1000):
+    """Area of the cap over the unit square (midpoint rule on the projection)."""
+    s = (np.arange(n) + 0.5) / n
+    r2 = (s[:, None] - 0.5) ** 2 + (s[None, :] - 0.5) ** 2
+    return float(np.mean(radius / np.sqrt(radius ** 2 - r2)))
+
+
+@pytest.fixture
+def null_pivot_detection():
+    opts = PETSc.Options()
+    opts.setValue("mat_mumps_icntl_24", "1")
+    yield
+    opts.delValue("mat_mumps_icntl_24")
+
+
+@pytest.mark.parametrize("cell, radius, tol", [("HEXA20", 2.0, 2e-3), ("HEXA20", 20.0, 1e-4),
+                                               ("TETRA10", 20.0, 3e-3)])
+def test_thin_cap_over_a_vertex_plane(tmp_path, null_pivot_detection, cell, radius, tol):
+    """The whole cap is followed (its area), every dof in contact, LAGS_C = -p to the
+    discretisation (the same caps at z = 0.40: 4.9e-4, 8.6e-7, 3.3e-5), no null pivot,
+    every vertex value within 5 % of -p."""
+    model = Model.from_case(load_case(write_case(tmp_path, cap(cell, radius))))
+    assert model.solve() > 0
+    v = model.interface_values()
+    assert abs(v["w"].sum() - cap_area(radius)) < 1e-4
+    assert np.abs(v["LAGS_C"] + P).max() <= tol * P
+    pr = model.problem
+    assert (pr.chi[pr.space.carriers_of >= 0] == 1).all()
+    assert np.abs(pr.vertex_values(model.x)[0] + P).max() <= 0.05 * P
+    assert model.solver_info()["mumps"]["null_pivots"] == 0
