@@ -173,7 +173,8 @@ def segment_roots(el: Element, phi_cell: FloatArray, xa: FloatArray, xb: FloatAr
 
 
 def project_midpoints(el: Element, phi_cell: FloatArray, pa: FloatArray, pb: FloatArray,
-                      face_normal: FloatArray, tet: FloatArray) -> tuple[FloatArray, BoolArray]:
+                      face_normal: FloatArray, tet: FloatArray,
+                      xc: FloatArray | None = None) -> tuple[FloatArray, BoolArray]:
     """Mid-nodes ``(k, m, 3)`` on LN = 0 of the straight edges ``pa -> pb`` (``(k, m, 3)``,
     both ends on LN = 0) of tetrahedra ``tet (k, m, 4, 3)``, and whether each was left
     off the zero set ``(k, m)``.
@@ -186,6 +187,15 @@ def project_midpoints(el: Element, phi_cell: FloatArray, pa: FloatArray, pb: Flo
     a vertex, whose quadrangle is nearly flat against a face), the node stops on the
     boundary, the nearest point of the line to the zero set inside the tetrahedron, so
     the sub-cells still tile it; such nodes are reported.
+
+    With the cells' node coordinates ``xc (k, nn, 3)`` (m), an edge on a face takes its
+    search direction in physical space: the physical gradient of LN minus its components
+    along the face's physical normal and the edge, mapped back to reference coordinates.
+    That direction depends only on the face (its map and LN's values on it), so the two
+    cells sharing a face put the node at the same point and the interface joins up
+    across it; in each cell's reference coordinates the two searches differed wherever
+    the cells' maps are no similarity (TETRA10 boxes: a cap's rim on a face was followed
+    at 81.9 degrees of a quarter circle by one cell and elsewhere by its neighbour).
     """
     k, m, _ = pa.shape
     mid = 0.5 * (pa + pb)
@@ -199,6 +209,9 @@ def project_midpoints(el: Element, phi_cell: FloatArray, pa: FloatArray, pb: Flo
     for u in (unit(face_normal), unit(c)):
         g = g - np.einsum("kmi,kmi->km", g, u)[..., None] * u
     d = unit(g)
+    on_face = np.abs(face_normal).sum(axis=-1) > 0
+    if xc is not None and on_face.any():
+        d = np.where(on_face[..., None], _physical_direction(el, phi_cell, xc, mid, c, face_normal), d)
     tmin, tmax = _line_in_tet(tet, mid, d)
     t = np.zeros((k, m))
     active = (np.linalg.norm(c, axis=-1) > 0) & (np.abs(d).sum(axis=-1) > 0)
@@ -221,6 +234,30 @@ def project_midpoints(el: Element, phi_cell: FloatArray, pa: FloatArray, pb: Flo
     scale = np.abs(phi_cell).max(axis=1)[:, None]
     off = ~(np.abs(phi_at(el, phi_cell, p)) <= 1e-10 * scale)
     return p, off
+
+
+def _physical_direction(el: Element, phi_cell: FloatArray, xc: FloatArray, mid: FloatArray,
+                        c: FloatArray, face_normal: FloatArray) -> FloatArray:
+    """Reference directions ``(k, m, 3)`` of :func:`project_midpoints`' search for edges on
+    faces, from physical space (``xc (k, nn, 3)`` the cells' nodes, ``mid``, ``c``,
+    ``face_normal`` in reference coordinates, each ``(k, m, 3)``)."""
+    J = np.einsum("kai,kmaj->kmij", xc, el.dshape(mid))             # dx / dxi at the midpoints
+    with np.errstate(divide="ignore", invalid="ignore"):
+        g = np.linalg.solve(np.swapaxes(J, -1, -2), grad_phi(el, phi_cell, mid)[..., None])[..., 0]
+        n = np.linalg.solve(np.swapaxes(J, -1, -2), face_normal[..., None])[..., 0]   # covariant
+        e = np.einsum("kmij,kmj->kmi", J, c)                                          # tangent
+
+    def unit(v: FloatArray) -> FloatArray:
+        size = np.linalg.norm(v, axis=-1, keepdims=True)
+        return np.where(size > 0, v / np.where(size > 0, size, 1.0), 0.0)
+
+    n = unit(n)
+    e = unit(e - np.einsum("kmi,kmi->km", e, n)[..., None] * n)
+    for u in (n, e):
+        g = g - np.einsum("kmi,kmi->km", g, u)[..., None] * u
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = np.linalg.solve(J, unit(g)[..., None])[..., 0]
+    return np.where(np.isfinite(d), unit(d), 0.0)
 
 
 def _line_in_tet(tet: FloatArray, p: FloatArray, d: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -280,11 +317,13 @@ def _take(points: FloatArray, index: IntArray) -> FloatArray:
     return out.reshape(index.shape + (3,))
 
 
-def cut_cells(el: Element, phi_cell: FloatArray, cells: IntArray | None = None
-              ) -> tuple[SubTets, Facets, BoolArray, IntArray]:
+def cut_cells(el: Element, phi_cell: FloatArray, cells: IntArray | None = None,
+              xc: FloatArray | None = None) -> tuple[SubTets, Facets, BoolArray, IntArray]:
     """Sub-tetrahedra and interface facets of cut cells with node values ``phi_cell (k, nn)``.
 
-    ``cells (k,)`` are stored in the results (default ``arange(k)``).  Returns
+    ``cells (k,)`` are stored in the results (default ``arange(k)``); ``xc (k, nn, 3)``: the
+    cells' node coordinates (m), which make the mid-nodes of interface edges on faces
+    agree between neighbours (:func:`project_midpoints`).  Returns
     ``(SubTets, Facets, bad (k,), off (k,))``; ``bad`` marks cells whose sub-cells
     cannot follow the interface (see the module documentation), ``off`` counts the
     interface edges whose mid-node stayed off the zero set (:func:`project_midpoints`).
@@ -333,7 +372,7 @@ def cut_cells(el: Element, phi_cell: FloatArray, cells: IntArray | None = None
         tet = np.broadcast_to(V[lrows][:, :, None], (n, T, tt.MAX_IFACE_EDGES, 4, 3))
         Mp, left = project_midpoints(el, phi_cell[lrows], pa[lrows].reshape(n, -1, 3),
                                      pb[lrows].reshape(n, -1, 3), fn[lrows].reshape(n, -1, 3),
-                                     tet.reshape(n, -1, 4, 3))
+                                     tet.reshape(n, -1, 4, 3), None if xc is None else xc[lrows])
         M[lrows] = np.where(live_e[lrows][..., None], Mp.reshape(n, T, -1, 3), M[lrows])
         off[lrows] = (left.reshape(n, T, -1) & live_e[lrows]).sum(axis=(1, 2))
     # sub-tetrahedra: vertices from P, mid-nodes straight or projected

@@ -73,7 +73,8 @@ def build(mesh: LocalMesh, phi: FloatArray) -> Geometry3D:
     cut = levelset.double_crossed_cells(mesh, phi) | cut3d.face_diagonal_dips(mesh.element, phi[mesh.cell_nodes])
     side = levelset.classify(mesh, phi, cut)
     cells = np.nonzero(side == 0)[0]
-    subs, facets, bad, off = cut3d.cut_cells(mesh.element, phi[mesh.cell_nodes[cells]], cells)
+    subs, facets, bad, off = cut3d.cut_cells(mesh.element, phi[mesh.cell_nodes[cells]], cells,
+                                             mesh.x[mesh.cell_nodes[cells]])
     if bad.any():
         c = cells[np.nonzero(bad)[0][0]]
         ctr = mesh.x[mesh.cell_nodes[c]].mean(axis=0)
