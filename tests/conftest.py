@@ -1,4 +1,5 @@
 """Shared helpers: write case files, run the command line (also under mpirun)."""
+import hashlib
 import json
 import os
 import pathlib
@@ -46,6 +47,44 @@ def run_python(script, np=None, timeout=600, args=()):
 
 def results(outdir):
     return json.loads((pathlib.Path(outdir) / "results.json").read_text())
+
+
+class Runs:
+    """Command-line runs done once per test session: several tests that only read the
+    results of the same run (the same case file, text and options, the same number of
+    processes) share one run instead of each starting it again.  The output folders are
+    read-only for the tests (a test that writes into its output, or restarts it, runs its
+    own)."""
+
+    def __init__(self, root):
+        self.root = pathlib.Path(root)
+        self.done = {}
+
+    def case(self, text, name="case.toml"):
+        """``text`` written once as ``name`` in a folder of its own: the same text gives the
+        same path, so that its runs are shared (mesh files by absolute path, or none)."""
+        path = self.root / "cases" / hashlib.sha1(text.encode()).hexdigest()[:16] / name
+        if not path.exists():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text)
+        return path
+
+    def __call__(self, case, *options, np_=None):
+        """``xfemcontact run case -o OUT *options`` (under ``mpirun -n np_`` if np_), once per
+        session: the CompletedProcess and OUT."""
+        case = pathlib.Path(case).resolve()
+        key = (str(case), case.read_text(), tuple(str(o) for o in options), np_)
+        if key not in self.done:
+            out = self.root / "runs" / str(len(self.done)) / "out"
+            out.parent.mkdir(parents=True)
+            self.done[key] = (run_cli(["run", case, "-o", out, *options], np=np_), out)
+        return self.done[key]
+
+
+@pytest.fixture(scope="session")
+def run_once(tmp_path_factory):
+    """The session's :class:`Runs`."""
+    return Runs(tmp_path_factory.mktemp("shared"))
 
 
 @pytest.fixture

@@ -15,7 +15,7 @@ import sys
 import numpy as np
 import pytest
 
-from conftest import MESHES, ROOT, results, run_cli
+from conftest import MESHES, ROOT, results
 
 _spec = importlib.util.spec_from_file_location("campaign", ROOT / "bench" / "campaign.py")
 campaign = importlib.util.module_from_spec(_spec)
@@ -31,8 +31,10 @@ def xfail(reason):
     return pytest.mark.xfail(strict=True, reason=reason)
 
 
-def write(tmp_path, name, fc=1.0, ff=1.0, absent=False):
-    """The case ``name`` of the table with coef_cont = fc E/h, coef_frot = ff E/(h mu p)."""
+def write(runs, name, fc=1.0, ff=1.0, absent=False):
+    """The case ``name`` of the table with coef_cont = fc E/h, coef_frot = ff E/(h mu p), in
+    the session's folder of shared cases (conftest.Runs: the same case, run with the same
+    options by several tests, runs once)."""
     c = ROWS[name]
     text = campaign.case_text(c, meshes=str(MESHES))
     h = campaign.mesh_h(c.mesh)
@@ -42,9 +44,7 @@ def write(tmp_path, name, fc=1.0, ff=1.0, absent=False):
     else:
         text = campaign.set_table_keys(text, "contact", {"coef_cont": f"{fc * c.E / h:.6e}",
                                                          "coef_frot": f"{ff * c.E / (h * c.mu * pscale):.6e}"})
-    path = tmp_path / f"{name}.toml"
-    path.write_text(text)
-    return path
+    return runs.case(text, f"{name}.toml")
 
 
 def tomllib_params(text):
@@ -52,9 +52,8 @@ def tomllib_params(text):
     return tomllib.loads(text)["parameters"]
 
 
-def run_case(tmp_path, path, np_=None):
-    out = tmp_path / ("out" if not np_ else f"out{np_}")
-    p = run_cli(["run", path, "-o", out], np=np_)
+def run_case(runs, path, np_=None):
+    p, out = runs(path, np_=np_)
     res = results(out) if (out / "results.json").exists() else None
     return p, res
 
@@ -109,8 +108,8 @@ FAST = [
 
 
 @pytest.mark.parametrize("name", FAST)
-def test_straight_closed_form(tmp_path, name):
-    assert_closed_form(*run_case(tmp_path, write(tmp_path, name)))
+def test_straight_closed_form(run_once, name):
+    assert_closed_form(*run_case(run_once, write(run_once, name)))
 
 
 @pytest.mark.parametrize("name, newton", [
@@ -132,9 +131,9 @@ def test_straight_closed_form(tmp_path, name):
     ("limit-T_t6s20_a+27_gen_nu0", 14),
     ("limit-D_q8u3x2_a+20_gen_nu0", 25),
 ])
-def test_straight_unstructured_quad8_newton(tmp_path, name, newton):
+def test_straight_unstructured_quad8_newton(run_once, name, newton):
     """Exact answers in as many Newton iterations as the statuses need."""
-    p, res = run_case(tmp_path, write(tmp_path, name))
+    p, res = run_case(run_once, write(run_once, name))
     assert_closed_form(p, res)
     assert res["iterations"]["newton"] <= newton
 
@@ -157,19 +156,19 @@ SWEEP = [
 
 
 @pytest.mark.parametrize("name, fc, ff", SWEEP)
-def test_straight_coefficient_sweep_ends(tmp_path, name, fc, ff):
+def test_straight_coefficient_sweep_ends(run_once, name, fc, ff):
     """coef_cont = fc E/h, coef_frot = ff E/(h mu |LAGS_C|): the same closed form, without
     forced convergence."""
-    p, res = run_case(tmp_path, write(tmp_path, name, fc, ff))
+    p, res = run_case(run_once, write(run_once, name, fc, ff))
     assert_closed_form(p, res)
     assert not [w for w in res["warnings"] if "convergence forced" in w]
 
 
 @pytest.mark.parametrize("name", ["limit-T_t6s_a+00_gen_nu0", "above-R_q8s_a+00_gen_nu0"])
-def test_straight_without_coefficients(tmp_path, name):
+def test_straight_without_coefficients(run_once, name):
     """coef_cont / coef_frot absent from the case: chosen from E, h, mu (with the old
     fixed defaults (100, 100) the sliding TRIA6 case did not converge, exit 3)."""
-    assert_closed_form(*run_case(tmp_path, write(tmp_path, name, absent=True)))
+    assert_closed_form(*run_case(run_once, write(run_once, name, absent=True)))
 
 
 # --- slow: the rest of the table at the natural coefficients ---------------------------------
@@ -182,8 +181,8 @@ SLOW = [pytest.param(c.name, marks=[pytest.mark.slow] + ([xfail(SLOW_XFAIL[c.nam
 
 
 @pytest.mark.parametrize("name", SLOW)
-def test_straight_closed_form_slow(tmp_path, name):
-    assert_closed_form(*run_case(tmp_path, write(tmp_path, name)))
+def test_straight_closed_form_slow(run_once, name):
+    assert_closed_form(*run_case(run_once, write(run_once, name)))
 
 
 # --- MPI: 2 and 3 processes give the closed form and the one-process answer -----------------
@@ -191,10 +190,10 @@ def test_straight_closed_form_slow(tmp_path, name):
 @pytest.mark.mpi
 @pytest.mark.parametrize("name", ["limit-D_t6u_a+10_gen_nu0", "limit-T_q8s_a+00_gen_nu0"])
 @pytest.mark.parametrize("np_", [2, 3])
-def test_straight_processes(tmp_path, name, np_):
-    path = write(tmp_path, name)
-    p1, r1 = run_case(tmp_path, path)
-    pn, rn = run_case(tmp_path, path, np_)
+def test_straight_processes(run_once, name, np_):
+    path = write(run_once, name)
+    p1, r1 = run_case(run_once, path)          # the run of test_straight_closed_form
+    pn, rn = run_case(run_once, path, np_)
     assert_closed_form(pn, rn)
     a, b = r1["interface"], rn["interface"]
     k1 = np.lexsort(np.round(np.c_[a["x"], a["y"], a["cell"]], 9).T[::-1])
@@ -234,15 +233,15 @@ CURVED = [
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", [pytest.param(n, marks=xfail(f"{NOEUD}: {why}") if why else ()) for n, why in CURVED])
-def test_curved_coulomb_admissible(tmp_path, name):
+def test_curved_coulomb_admissible(run_once, name):
     """Converged, LAGS_C <= 0, |LAGS_F1| <= 1, gap >= 0 at every interface point (the
     case's own tests), with its coefficients."""
     path = campaign.CAMPAIGN / f"{name}.toml"
-    p = run_cli(["run", path, "-o", tmp_path / "out"])
+    p, out = run_once(path)                    # curved_ssnv509_mu02_quad8: shared with test_friction_newton
     assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-2000:]
     # measured with Coulomb's law in Newton, back into Newton after the guard (before: 82, 53,
     # 120, 121 with the threshold loop alone, 43, 25, 43, 58 with the statuses judged on the
     # trial traction, 24, 19, 37, 30 without re-arming)
     bound = {"curved_ssnv509_mu02_quad8": 23, "curved_ssnv509_mu02_tria6_gmsh": 16,
              "curved_arc_shear_quad8": 34, "curved_arc_shear_quad8_gmsh": 25}[name]
-    assert results(tmp_path / "out")["iterations"]["newton"] <= bound
+    assert results(out)["iterations"]["newton"] <= bound

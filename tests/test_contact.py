@@ -19,6 +19,14 @@ def run_ok(case, out, *options):
     return p, results(out)
 
 
+def shared_ok(run_once, case, *options):
+    """``run_ok`` of a one-process run that several tests read (done once, conftest.Runs):
+    the process, results.json and the output folder."""
+    p, out = run_once(case, *options)
+    assert p.returncode == 0, p.stdout + p.stderr
+    return p, results(out), out
+
+
 def exact(x, y, yc=11.77):
     t = np.arctan2(y - yc, x - 5.0)
     return -0.1 * np.sin(t) ** 2, (x - 5.0) / (2.0 * (y - yc))
@@ -45,10 +53,8 @@ def test_ssnv509_tables_and_null_pivots(tmp_path, name):
     print(f"{name}: max error LAGS_C {err_c:.2e} LAGS_F1 {err_f:.2e}, iterations {r['iterations']}")
 
 
-def test_interface_table_layout(tmp_path):
-    out = tmp_path / "a"
-    assert run_cli(["run", CASES / "ssnv509a.toml", "-o", out]).returncode == 0
-    it = results(out)["interface"]
+def test_interface_table_layout(run_once):
+    it = shared_ok(run_once, CASES / "ssnv509a.toml")[1]["interface"]
     n = len(it["x"])
     assert n > 0 and all(len(it[k]) == n for k in ("y", "LAGS_C", "LAGS_F1", "gap", "slip"))
     # every point appears once per cell holding it: interior points twice
@@ -64,8 +70,8 @@ def test_interface_table_layout(tmp_path):
                                   "ssnv509_jittered", "ssnv509_distorted_quad8", "inclusion_biaxial",
                                   "flat_arc", "column_on_incline", "column_on_incline_tria6", "inclined_line",
                                   "diagonal_line", "free_lips"])
-def test_beyond_stick(tmp_path, name):
-    _, r = run_ok(CASES / "validation" / f"{name}.toml", tmp_path / name)
+def test_beyond_stick(run_once, name):
+    _, r, _ = shared_ok(run_once, CASES / "validation" / f"{name}.toml")
     assert r["converged"] and all(t["ok"] for t in r["tests"])
 
 
@@ -77,9 +83,10 @@ def test_beyond_stick_low_friction_noeud(tmp_path):
     assert r["converged"] and all(t["ok"] for t in r["tests"])
 
 
-def test_beyond_stick_low_friction_gauss(tmp_path):
+def test_beyond_stick_low_friction_gauss(tmp_path, run_once):
     """code_aster's Gauss-point form on the same case (its fallbacks included) converges."""
-    _, r = run_ok(gauss(CASES / "validation" / "low_friction.toml", tmp_path), tmp_path / "lf")
+    case = run_once.case(gauss(CASES / "validation" / "low_friction.toml", tmp_path).read_text(), "low_friction.toml")
+    _, r, _ = shared_ok(run_once, case)
     assert r["converged"] and all(t["ok"] for t in r["tests"])
 
 
@@ -136,10 +143,8 @@ def test_chained_ties_keep_linear_fields(tmp_path):
     assert np.abs(np.array(it["LAGS_F1"]) - f1).max() < 1e-6
 
 
-def test_opening_releases_every_point(tmp_path):
-    out = tmp_path / "o"
-    assert run_cli(["run", CASES / "validation" / "opening.toml", "-o", out]).returncode == 0
-    r = results(out)
+def test_opening_releases_every_point(run_once):
+    _, r, _ = shared_ok(run_once, CASES / "validation" / "opening.toml")
     # statuses changed: inside Newton (Coulomb's law in Newton, the default: the semi-smooth
     # Newton updates contact statuses at every iteration) or in the status loop (TRESCA)
     assert r["iterations"]["newton"] > 1 or r["iterations"]["status_changes"][0] > 0
@@ -147,12 +152,11 @@ def test_opening_releases_every_point(tmp_path):
 
 
 @pytest.mark.parametrize("integration", ["NOEUD", "GAUSS"])
-def test_slip_zone_matches_stick_prediction(tmp_path, integration):
-    """mu = 0.3: points where the stick solution needs |sigma_nt| > mu |sigma_nn| slip."""
-    out = tmp_path / "lf"
+def test_slip_zone_matches_stick_prediction(tmp_path, run_once, integration):
+    """mu = 0.3: points where the stick solution needs |sigma_nt| > mu |sigma_nn| slip.
+    (GAUSS: the run of test_beyond_stick_low_friction_gauss, the same case file.)"""
     case = with_contact_keys(CASES / "validation" / "low_friction.toml", tmp_path, integration=f'"{integration}"')
-    assert run_cli(["run", case, "-o", out]).returncode == 0
-    it = results(out)["interface"]
+    it = shared_ok(run_once, run_once.case(case.read_text(), case.name))[1]["interface"]
     x, y = np.array(it["x"]), np.array(it["y"])
     ratio = np.abs(x - 5.0) / np.abs(y - 11.77)          # |sigma_nt / sigma_nn| of the stick solution
     sliding = np.array(it["sliding"], bool)
@@ -198,10 +202,15 @@ def test_traction_form_needs_one_factorisation(tmp_path):
 INTERFACE_FIELDS = ("x", "y", "LAGS_C", "LAGS_F1", "gap", "slip")
 
 
-def one_and_many(tmp_path, case, np_):
-    """results.json of ``case`` run on one process and on ``np_`` processes."""
+def one_and_many(tmp_path, case, np_, run_once=None):
+    """results.json of ``case`` run on one process and on ``np_`` processes (the one-process
+    run shared with the tests that read it too if ``run_once``)."""
     one, many = tmp_path / "one", tmp_path / "many"
-    assert run_cli(["run", case, "-o", one]).returncode == 0
+    if run_once:
+        p, one = run_once(case)
+        assert p.returncode == 0, p.stdout + p.stderr
+    else:
+        assert run_cli(["run", case, "-o", one]).returncode == 0
     p = run_cli(["run", case, "-o", many], np=np_)
     assert p.returncode == 0, p.stdout + p.stderr
     return results(one), results(many)
@@ -254,10 +263,10 @@ def test_mumps_out_of_work_space_is_given_more(tmp_path):
 
 
 @pytest.mark.mpi
-def test_mpi_interface_along_quadrangle_diagonals(tmp_path):
+def test_mpi_interface_along_quadrangle_diagonals(tmp_path, run_once):
     """Twins are found from gathered data: 2 processes (which crashed before) give the
     exact multipliers of one process."""
-    r1, r2 = one_and_many(tmp_path, CASES / "validation" / "diagonal_line.toml", 2)
+    r1, r2 = one_and_many(tmp_path, CASES / "validation" / "diagonal_line.toml", 2, run_once)
     for r in (r1, r2):
         assert r["converged"] and all(t["ok"] for t in r["tests"]), r["tests"]
     assert r1["multipliers"] == r2["multipliers"]
@@ -320,16 +329,16 @@ def test_too_small_coef_frot_is_named_when_newton_cycles(tmp_path):
 
 
 @pytest.mark.mpi
-def test_mpi_same_interface_values(tmp_path):
-    assert_same_interface(*one_and_many(tmp_path, CASES / "ssnv509a.toml", 2), 1e-10)
+def test_mpi_same_interface_values(tmp_path, run_once):
+    assert_same_interface(*one_and_many(tmp_path, CASES / "ssnv509a.toml", 2, run_once), 1e-10)
 
 
 @pytest.mark.mpi
-def test_mpi_interface_pushed_off_edges(tmp_path):
+def test_mpi_interface_pushed_off_edges(tmp_path, run_once):
     """The wavy interface touches two mesh edges: the cells along them are cut again
     with the zero line pushed off (a collective retry); 3 processes decide the same
     edges and give the values of one process."""
-    r1, r3 = one_and_many(tmp_path, CASES / "validation" / "sinusoid.toml", 3)
+    r1, r3 = one_and_many(tmp_path, CASES / "validation" / "sinusoid.toml", 3, run_once)
     assert r1["geometry"]["readjusted"] == r3["geometry"]["readjusted"]
     assert r1["geometry"]["readjusted"]["pushed_off_edges"] == 2
     assert sum(c > 0 for c in r3["geometry"]["cut_cells_per_process"]) >= 2
@@ -337,12 +346,12 @@ def test_mpi_interface_pushed_off_edges(tmp_path):
 
 
 @pytest.mark.mpi
-def test_mpi_distorted_quadrangles(tmp_path):
+def test_mpi_distorted_quadrangles(tmp_path, run_once):
     """Distorted QUAD8 cells (maps not affine): each process builds the sub-cells of its
     cut cells, numbered from whichever vertex its DMPlex closure starts at; the fan of
     sub-triangles must not depend on that (their quadrature is not exact on such cells,
     so another fan moves the multipliers by about 1e-10)."""
-    r1, r2 = one_and_many(tmp_path, CASES / "validation" / "ssnv509_distorted_quad8.toml", 2)
+    r1, r2 = one_and_many(tmp_path, CASES / "validation" / "ssnv509_distorted_quad8.toml", 2, run_once)
     assert all(c > 0 for c in r2["geometry"]["cut_cells_per_process"])
     assert_same_interface(r1, r2, 1e-11)
 

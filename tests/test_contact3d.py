@@ -18,7 +18,7 @@
 import numpy as np
 import pytest
 
-from conftest import ROOT, results, run_cli, write_case
+from conftest import ROOT, results, write_case
 from xfemcontact._petsc import PETSc
 from xfemcontact.case import load_case
 from xfemcontact.model import Model
@@ -241,11 +241,11 @@ VALIDATION = ("box_plane_contact_hexa20", "box_plane_opening_tetra10", "box_incl
 
 
 @pytest.mark.parametrize("name", VALIDATION)
-def test_validation_cases(tmp_path, name):
+def test_validation_cases(run_once, name):
     """Every test of the 3-D validation cases OK; interface.csv has the 3-D columns and
-    one row per interface point of results.json."""
-    out = tmp_path / name
-    done = run_cli(["run", ROOT / "cases" / "validation" / f"{name}.toml", "-o", out, "-q"])
+    one row per interface point of results.json.  (The run is shared with
+    test_processes_give_the_answer_of_one, which reads it too.)"""
+    done, out = run_once(ROOT / "cases" / "validation" / f"{name}.toml", "-q")
     assert done.returncode == 0, done.stdout + done.stderr
     r = results(out)
     assert r["tests"] and all(t["ok"] for t in r["tests"])
@@ -256,7 +256,7 @@ def test_validation_cases(tmp_path, name):
 
 
 @pytest.mark.parametrize("name", ["box_incline_stick_hexa20", "box_incline_slip_tetra10", "box_cylinder_stick_tetra10"])
-def test_processes_give_the_answer_of_one(tmp_path, name):
+def test_processes_give_the_answer_of_one(run_once, name):
     """``mpirun -n 2`` and ``-n 3`` reproduce one process's interface.csv to 1e-10 (the
     gap, zero, to 1e-10 of the displacements), in slip too: the slip direction is a function
     of the iterate that Newton converges quadratically (measured 1e-13 on LAGS_C; with the
@@ -264,8 +264,7 @@ def test_processes_give_the_answer_of_one(tmp_path, name):
     case = ROOT / "cases" / "validation" / f"{name}.toml"
     outs = {}
     for np_ in (None, 2, 3):
-        out = tmp_path / f"n{np_ or 1}"
-        done = run_cli(["run", case, "-o", out, "-q"], np=np_)
+        done, out = run_once(case, "-q", np_=np_)
         assert done.returncode == 0, done.stdout + done.stderr
         outs[np_ or 1] = interface_csv.read(out / "interface.csv")
     one = outs[1]

@@ -38,6 +38,14 @@ def run_ok(args, out, np_=None):
     return results(out)
 
 
+def shared_ok(run_once, case, *options):
+    """``run_ok`` of a one-process run several tests read, done once (conftest.Runs):
+    results.json and the output folder."""
+    p, out = run_once(case, *options)
+    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
+    return results(out), out
+
+
 def central_difference(model, x, d, eps):
     """(R(x + eps d) - R(x - eps d)) / (2 eps), the residual's derivative along ``d``."""
     f1, f2 = x.duplicate(), x.duplicate()
@@ -148,13 +156,13 @@ def test_coupling_is_the_derivative_of_the_residual_in_3d(coulomb_newton):
     assert np.abs(fd - Kd.getArray()).max() > 1e-3 * np.abs(jd).max()
 
 
-def test_both_newtons_give_the_same_answer(tmp_path):
+def test_both_newtons_give_the_same_answer(tmp_path, run_once):
     """-xfc_friction_newton COULOMB (the default) and TRESCA (the threshold fixed point) end
     on the same discrete solution, the former in fewer Newton iterations; the coupled
     Jacobians are counted, factorised by LU."""
-    r1 = run_ok([SLIP], tmp_path / "c")
+    r1, c = shared_ok(run_once, SLIP)
     r2 = run_ok([SLIP, "-xfc_friction_newton", "TRESCA"], tmp_path / "t")
-    a, b = interface(tmp_path / "c"), interface(tmp_path / "t")
+    a, b = interface(c), interface(tmp_path / "t")
     for f, scale in (("LAGS_C", 100.0), ("LAGS_F1", 1.0), ("gap", 1e-3), ("slip", 1e-3)):
         assert np.abs(a[f] - b[f]).max() <= 1e-8 * scale, f
     assert r1["multipliers"]["friction_newton"] == "COULOMB"
@@ -164,21 +172,21 @@ def test_both_newtons_give_the_same_answer(tmp_path):
     assert r2["linear_solver"]["coupled_jacobians"] == 0
 
 
-def test_sticking_keeps_one_symmetric_factorisation(tmp_path):
+def test_sticking_keeps_one_symmetric_factorisation(run_once):
     """SSNV509 a sticks everywhere: nothing couples, one Newton iteration, one Cholesky
     factorisation of the symmetric (SBAIJ) matrix."""
-    r = run_ok([CASES / "ssnv509a.toml"], tmp_path / "a")
+    r, _ = shared_ok(run_once, CASES / "ssnv509a.toml")
     ls = r["linear_solver"]
     assert (ls["pc"], ls["matrix"], ls["jacobians"], ls["coupled_jacobians"]) == ("cholesky", "seqsbaij", 1, 0)
     assert r["iterations"]["newton"] == 1
 
 
-def test_user_krylov_method_on_the_coupled_tangent(tmp_path):
+def test_user_krylov_method_on_the_coupled_tangent(tmp_path, run_once):
     """-ksp_type gmres: the coupling is applied beside the factors of the symmetric part;
     the same answer."""
-    run_ok([SLIP], tmp_path / "lu")
+    _, lu = shared_ok(run_once, SLIP)
     run_ok([SLIP, "-ksp_type", "gmres", "-ksp_rtol", "1e-12", "-ksp_pc_side", "right"], tmp_path / "k")
-    a, b = interface(tmp_path / "lu"), interface(tmp_path / "k")
+    a, b = interface(lu), interface(tmp_path / "k")
     assert np.abs(a["LAGS_C"] - b["LAGS_C"]).max() <= 1e-8 * 100.0
     assert np.abs(a["slip"] - b["slip"]).max() <= 1e-8 * 1e-3
 
@@ -206,11 +214,11 @@ def test_cycle_guard(tmp_path):
 
 
 @pytest.mark.parametrize("np_", [2, 3])
-def test_coupled_tangent_in_parallel(tmp_path, np_):
+def test_coupled_tangent_in_parallel(tmp_path, run_once, np_):
     """The AIJ copy and its LU under mpirun: the one-process answer to 1e-10."""
-    run_ok([SLIP], tmp_path / "1")
+    _, one = shared_ok(run_once, SLIP)
     run_ok([SLIP], tmp_path / "n", np_=np_)
-    a, b = interface(tmp_path / "1"), interface(tmp_path / "n")
+    a, b = interface(one), interface(tmp_path / "n")
     ka = np.lexsort((a["y"].round(9), a["x"].round(9)))
     kb = np.lexsort((b["y"].round(9), b["x"].round(9)))
     for f, scale in (("LAGS_C", 100.0), ("LAGS_F1", 1.0), ("slip", 1e-3)):
@@ -218,16 +226,16 @@ def test_coupled_tangent_in_parallel(tmp_path, np_):
 
 
 @pytest.mark.mpi
-def test_process_without_interface_elements(tmp_path):
+def test_process_without_interface_elements(tmp_path, run_once):
     """SSNV509 a with mu = 0.2 on 3 processes: one holds no interface element, the others
     slip; the coupled tangent is assembled on every process (an empty batch once failed
     to reshape) and the answer is the one-process one."""
     case = ROOT / "cases" / "campaign" / "curved_ssnv509_mu02_quad8.toml"
-    r1 = run_ok([case], tmp_path / "1")
+    r1, one = shared_ok(run_once, case)        # shared with test_campaign's curved cases
     r3 = run_ok([case], tmp_path / "3", np_=3)
     assert min(r3["geometry"]["cut_cells_per_process"]) == 0
     assert r1["linear_solver"]["coupled_jacobians"] > 0
-    a, b = interface(tmp_path / "1"), interface(tmp_path / "3")
+    a, b = interface(one), interface(tmp_path / "3")
     ka = np.lexsort((a["y"].round(9), a["x"].round(9)))
     kb = np.lexsort((b["y"].round(9), b["x"].round(9)))
     # (the guard hands this case over to the threshold loop, and Coulomb's law goes back into

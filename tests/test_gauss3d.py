@@ -276,11 +276,10 @@ VALIDATION = ("box_plane_contact_gauss_hexa20", "box_plane_opening_gauss_tetra10
 
 
 @pytest.mark.parametrize("name", VALIDATION)
-def test_validation_cases(tmp_path, name):
+def test_validation_cases(run_once, name):
     """The 3-D validation cases with the Gauss-point form: every test OK, the 3-D columns of
     interface.csv, the Gauss-point problem's statuses at every point."""
-    out = tmp_path / name
-    done = run_cli(["run", ROOT / "cases" / "validation" / f"{name}.toml", "-o", out, "-q"])
+    done, out = run_once(ROOT / "cases" / "validation" / f"{name}.toml", "-q")      # shared (conftest.Runs)
     assert done.returncode == 0, done.stdout + done.stderr
     r = results(out)
     assert r["tests"] and all(t["ok"] for t in r["tests"])
@@ -290,15 +289,14 @@ def test_validation_cases(tmp_path, name):
     assert (table["sliding"] == (1 if "slip" in name else 0)).all()
 
 
-def test_two_processes_give_the_answer_of_one(tmp_path):
+def test_two_processes_give_the_answer_of_one(run_once):
     """``mpirun -n 2`` reproduces one process's interface.csv to 1e-10 on the slip case
     (TETRA10, tilted plane; the gap, zero, to 1e-10 of the displacements; measured 2.7e-13),
     in as many Newton iterations."""
     case = ROOT / "cases" / "validation" / "box_incline_slip_gauss_tetra10.toml"
     outs, newton = {}, {}
-    for np_ in (None, 2):
-        out = tmp_path / f"n{np_ or 1}"
-        done = run_cli(["run", case, "-o", out, "-q"], np=np_)
+    for np_ in (None, 2):                  # one process: the run of test_validation_cases
+        done, out = run_once(case, "-q", np_=np_)
         assert done.returncode == 0, done.stdout + done.stderr
         outs[np_ or 1] = interface_csv.read(out / "interface.csv")
         newton[np_ or 1] = results(out)["iterations"]["newton"]

@@ -17,13 +17,13 @@ SSNV201 = ["ssnv201a_like_hexa20", "ssnv201a_like_tetra10", "ssnv201b_like_hexa2
 
 
 @pytest.mark.parametrize("name", SSNV201)
-def test_ssnv201_cases(tmp_path, name):
+def test_ssnv201_cases(run_once, name):
     """Open at t = 1 (gap 1e-3, LAGS_C 0), closed at t = 2 (LAGS_C = -sigma), kept closed
     in tension at t = 3 (LAGS_C = +sigma, gap 0) while sliding (slip 1e-3): every test OK;
     the dofs' statuses at t = 3 are those of t = 2."""
-    done = run_cli(["run", VALIDATION / f"{name}.toml", "-o", tmp_path / "out", "-q"])
+    done, out = run_once(VALIDATION / f"{name}.toml", "-q")     # shared with test_processes
     assert done.returncode == 0, done.stdout + done.stderr
-    res = results(tmp_path / "out")
+    res = results(out)
     assert len(res["tests"]) == 11 and all(t["ok"] for t in res["tests"])
     steps = {s["inst"]: s for s in res["steps"]}
     assert not any(steps[1.0]["interface"]["contact"]) and all(steps[3.0]["interface"]["contact"])
@@ -109,14 +109,13 @@ def test_friction_refused(tmp_path):
 
 @pytest.mark.mpi
 @pytest.mark.slow
-def test_processes(tmp_path):
+def test_processes(run_once):
     """2, 3 and 4 processes reproduce one process at every instant to 1e-10 (a process
     without interface elements included: the box has 60 cells)."""
     case = VALIDATION / "ssnv201a_like_tetra10.toml"
     runs = {}
-    for n in (None, 2, 3, 4):
-        out = tmp_path / f"n{n or 1}"
-        done = run_cli(["run", case, "-o", out, "-q"], np=n)
+    for n in (None, 2, 3, 4):              # one process: the run of test_ssnv201_cases
+        done, out = run_once(case, "-q", np_=n)
         assert done.returncode == 0, done.stdout + done.stderr
         runs[n or 1] = results(out)
     for n in (2, 3, 4):

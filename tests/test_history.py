@@ -135,6 +135,18 @@ def run_case(case, out, *args, np_=None, code=0):
     return p, results(out)
 
 
+def run_shared(run_once, case, *args, np_=None):
+    """``run_case`` of a run several tests only read, done once per session (conftest.Runs)."""
+    p, out = run_once(case, *args, np_=np_)
+    assert p.returncode == 0, p.stdout + p.stderr
+    return p, results(out), out
+
+
+#: the one-process runs the tests of each history case read (test_mpi_every_instant compares
+#: the same ones with 2 and 3 processes; -q changes the progress lines only)
+ONE_PROCESS = {"history_shear_cycle": (), "history_open_reclose": ("-q",), "history_cut": ()}
+
+
 def step_errors(res, case_path, fields=("LAGS_C", "LAGS_F1", "slip", "gap")):
     """{inst: {field: largest |computed - reference(t)|}} over the interface points of
     every step (the [reference] formulas of the case, at each instant)."""
@@ -157,11 +169,11 @@ def hysteresis(t):
     return tau, s
 
 
-def test_shear_cycle_every_instant(tmp_path):
+def test_shear_cycle_every_instant(run_once):
     """Coulomb hysteresis in closed form at each of the 14 instants: stick, slip, stick on
     unloading with the slip kept, reverse slip; the accumulated slip; the output files."""
     case = VALIDATION / "history_shear_cycle.toml"
-    p, res = run_case(case, tmp_path / "out")
+    p, res, out = run_shared(run_once, case, *ONE_PROCESS["history_shear_cycle"])
     steps = res["steps"]
     assert [s["inst"] for s in steps] == [0.5 * k for k in range(1, 15)]
     assert len(re.findall(r"^t = .*Newton iteration", p.stdout, re.M)) == 14
@@ -176,18 +188,19 @@ def test_shear_cycle_every_instant(tmp_path):
     assert np.allclose(steps[-1]["interface"]["slip_path"], 4e-4, atol=1e-15)      # there and back
     assert all(t["ok"] for t in res["tests"]) and {t["inst"] for t in res["tests"]} == {1.5, 3.0, 4.0, 5.5, 7.0}
     # interface.csv: one block per instant; fields.xdmf: one frame per instant
-    cols = interface_csv.read(tmp_path / "out" / "interface.csv")
+    cols = interface_csv.read(out / "interface.csv")
     assert list(np.unique(cols["inst"])) == [s["inst"] for s in steps]
     assert "slip_path" in cols and "slip_err" in cols
-    xdmf = (tmp_path / "out" / "fields.xdmf").read_text()
+    xdmf = (out / "fields.xdmf").read_text()
     assert xdmf.count("<Time Value=") == 14 and 'CollectionType="Temporal"' in xdmf
-    assert (tmp_path / "out" / "plot_history.png").is_file()
-    assert not (tmp_path / "out.checkpoints").exists()          # removed once the results are in
+    assert (out / "plot_history.png").is_file()
+    assert not out.with_name("out.checkpoints").exists()        # removed once the results are in
 
 
-def test_open_reclose_every_instant(tmp_path):
+def test_open_reclose_every_instant(run_once):
     case = VALIDATION / "history_open_reclose.toml"
-    p, res = run_case(case, tmp_path / "out", "-q")
+    p, res, _ = run_shared(run_once, case, *ONE_PROCESS["history_open_reclose"])
+    assert ONE_PROCESS["history_open_reclose"] == ("-q",)
     assert not re.search(r"^t = ", p.stdout, re.M)              # -q: no progress lines
     errors = step_errors(res, case)
     assert len(errors) == 12
@@ -206,11 +219,11 @@ def test_ssnv182f_two_steps(tmp_path):
         assert np.allclose(s["interface"]["LAGS_F1"], -np.tan(np.pi / 6), rtol=1e-10)
 
 
-def test_ssnv509_ramp_gives_the_one_step_answer(tmp_path):
+def test_ssnv509_ramp_gives_the_one_step_answer(tmp_path, run_once):
     """SSNV509 a in 4 steps (stick everywhere: path-independent) ends at the one-step
     answer; a case without [instants] runs as one step with a one-entry steps list."""
     _, ramp = run_case(VALIDATION / "ssnv509_ramp.toml", tmp_path / "ramp")
-    _, one = run_case(CASES / "ssnv509a.toml", tmp_path / "one")
+    _, one, _ = run_shared(run_once, CASES / "ssnv509a.toml")
     assert len(ramp["steps"]) == 4 and len(one["steps"]) == 1 and one["steps"][0]["inst"] == 1.0
     for f in ("LAGS_C", "LAGS_F1"):
         assert np.abs(np.array(ramp["interface"][f]) - np.array(one["interface"][f])).max() < 1e-10
@@ -218,13 +231,13 @@ def test_ssnv509_ramp_gives_the_one_step_answer(tmp_path):
         assert e["LAGS_C"] < 2e-6 * t and e["LAGS_F1"] < 2e-5, (t, e)
 
 
-def test_step_cutting(tmp_path):
+def test_step_cutting(tmp_path, run_once):
     """The step 3 -> 6 fails at full size (more than the 3 Newton iterations allowed) and
     converges cut into 4; with 2 iterations allowed the run stops (exit 3) after two
     levels, keeping the completed steps and their checkpoints, and --restart with 3
     iterations allowed ends the run."""
     case = VALIDATION / "history_cut.toml"
-    p, res = run_case(case, tmp_path / "out")
+    p, res, _ = run_shared(run_once, case, *ONE_PROCESS["history_cut"])
     assert [(s["inst"], s["level"]) for s in res["steps"]] == [
         (1.0, 0), (3.0, 0), (3.75, 1), (4.5, 1), (5.25, 1), (6.0, 1), (7.0, 0)]
     assert "cut into 4 steps (level 1 of 2)" in p.stdout
@@ -348,10 +361,10 @@ def test_restart_after_sigkill(tmp_path, np_):
 
 
 @pytest.mark.slow
-def test_coefficients_do_not_matter(tmp_path):
+def test_coefficients_do_not_matter(tmp_path, run_once):
     """The cycle with COEF_CONT and COEF_FROT far from their defaults: the same answers."""
     text = (VALIDATION / "history_shear_cycle.toml").read_text()
-    _, ref = run_case(VALIDATION / "history_shear_cycle.toml", tmp_path / "ref", "-q")
+    _, ref, _ = run_shared(run_once, VALIDATION / "history_shear_cycle.toml", *ONE_PROCESS["history_shear_cycle"])
     for keys in ("coef_cont = 100.0\ncoef_frot = 1.0", "coef_cont = 1.0e12\ncoef_frot = 1.0e9"):
         path = tmp_path / "c.toml"
         path.write_text(text.replace("coulomb = 0.5\n", f"coulomb = 0.5\n{keys}\n"))
@@ -377,10 +390,10 @@ def test_gauss_formulation_history(tmp_path):
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("name", ["history_shear_cycle", "history_open_reclose", "history_cut"])
-def test_mpi_every_instant(tmp_path, name):
+def test_mpi_every_instant(tmp_path, run_once, name):
     """2 and 3 processes reproduce one process at every instant to 1e-10."""
     case = VALIDATION / f"{name}.toml"
-    _, one = run_case(case, tmp_path / "1", "-q")
+    _, one, _ = run_shared(run_once, case, *ONE_PROCESS[name])
     for n in (2, 3):
         _, many = run_case(case, tmp_path / str(n), "-q", np_=n)
         assert [s["inst"] for s in many["steps"]] == [s["inst"] for s in one["steps"]]

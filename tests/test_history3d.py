@@ -53,13 +53,24 @@ def no_plots(case, tmp_path):
     return path
 
 
-def with_fields(case, tmp_path, formats='["xdmf", "vtu"]'):
-    """A copy of ``case`` (no mesh file: a box) writing the field files ``formats``, no plots."""
-    path = tmp_path / case.name
-    text = case.read_text().replace("plots = true", "plots = false")
-    assert "formats = []" in text
-    path.write_text(text.replace("formats = []", f"formats = {formats}"))
-    return path
+@pytest.fixture(scope="module")
+def reclose(run_once):
+    """history_reclose3d_tetra10.toml writing interface.xdmf, fields.xdmf and the VTU files
+    (its plots are off; the output formats do not change what is solved), run once per
+    number of processes for every test here that only reads its results: ``reclose(n)`` is
+    the CompletedProcess, the results.json and the output folder of ``-q`` on n processes.
+    ``reclose.case`` is the case file."""
+    text = (VALIDATION / "history_reclose3d_tetra10.toml").read_text()
+    assert "formats = []" in text and "plots = false" in text
+    case = run_once.case(text.replace("formats = []", 'formats = ["xdmf", "vtu"]'), "history_reclose3d_tetra10.toml")
+
+    def run(n=1):
+        p, out = run_once(case, "-q", np_=n if n > 1 else None)
+        assert p.returncode == 0, p.stdout + p.stderr
+        return p, results(out), out
+
+    run.case = case
+    return run
 
 
 def surface_series(out):
@@ -74,7 +85,7 @@ def surface_series(out):
     return points, cells[0].data, [reader.read_data(k) for k in range(reader.num_steps)]
 
 
-def test_interface_surface_every_step(tmp_path):
+def test_interface_surface_every_step(reclose):
     """With [instants] in 3-D the interface surface is written at every step
     (interface.xdmf + interface.h5, a temporal collection as fields.xdmf, read back by
     meshio and h5py): each step holds every field of the one-step interface.xdmf, and
@@ -86,9 +97,8 @@ def test_interface_surface_every_step(tmp_path):
 
     from xfemcontact.contact.problem import SURFACE_FIELDS
 
-    case = with_fields(VALIDATION / "history_reclose3d_tetra10.toml", tmp_path)
-    out = tmp_path / "out"
-    _, res = run_case(case, out, "-q")
+    case = reclose.case
+    _, res, out = reclose()
     assert {"fields.xdmf", "fields.h5", "interface.xdmf", "interface.h5", "interface.vtu"} <= \
         {p.name for p in out.iterdir()}
     points, conn, frames = surface_series(out)
@@ -119,14 +129,11 @@ def test_interface_surface_every_step(tmp_path):
 
 
 @pytest.mark.mpi
-def test_interface_surface_two_processes(tmp_path):
+def test_interface_surface_two_processes(reclose):
     """``mpirun -n 2``: the interface surface over time is the one of one process (the same
     points and facets; every step's fields within 1e-10, LAGS_C relative to its largest)."""
-    case = with_fields(VALIDATION / "history_reclose3d_tetra10.toml", tmp_path, '["xdmf"]')
-    run_case(case, tmp_path / "1", "-q")
-    run_case(case, tmp_path / "2", "-q", np_=2)
-    p1, c1, one = surface_series(tmp_path / "1")
-    p2, c2, two = surface_series(tmp_path / "2")
+    p1, c1, one = surface_series(reclose(1)[2])
+    p2, c2, two = surface_series(reclose(2)[2])
     assert np.array_equal(p1, p2) and np.array_equal(c1, c2) and len(one) == len(two) == 12
     scale = max(np.abs(pd["LAGS_C"]).max() for _, pd, _ in one)
     for (t1, a, ca), (t2, b, cb) in zip(one, two):
@@ -181,12 +188,12 @@ def test_slip_direction_in_newton_every_instant(tmp_path, name):
         assert err["gap"] < 1e-15 and err["slip"] < 1e-14, (t, err)
 
 
-def test_reclose_every_instant(tmp_path):
+def test_reclose_every_instant(reclose):
     """An inclined TETRA10 interface pressed (friction sticking, both tangential
     components of the traction exact), pulled open (gap and slip of the rigid lift,
     tractions zero), pressed again (the reclosing step starts from no slip and sticks)."""
     case = VALIDATION / "history_reclose3d_tetra10.toml"
-    _, res = run_case(case, tmp_path / "out", "-q")
+    _, res, _ = reclose()
     assert res["tests"] and all(t["ok"] for t in res["tests"])
     for t, err in step_errors(res, case).items():
         assert err["LAGS_C"] < 1e-9 and err["LAGS_F1"] < 1e-9 and err["LAGS_F2"] < 1e-9, (t, err)
@@ -220,23 +227,23 @@ def test_step_cutting_stop_and_resume(tmp_path):
     assert not (tmp_path / "out.checkpoints").exists()
 
 
-def test_restart_after_sigkill(tmp_path):
+def test_restart_after_sigkill(tmp_path, reclose):
     """A 3-D run killed (SIGKILL) after 5 of its 12 steps resumes with --restart and writes
     the interface.csv, fields.xdmf and interface.xdmf (every step's fields in fields.h5 and
     interface.h5) of the uninterrupted run byte for byte (one process)."""
     import h5py
 
-    case = with_fields(VALIDATION / "history_reclose3d_tetra10.toml", tmp_path, '["xdmf"]')
-    _, full = run_case(case, tmp_path / "full", "-q")
+    case = reclose.case                  # the uninterrupted run: the shared one, same case file
+    _, full, full_out = reclose()
     cmd = [sys.executable, "-m", "xfemcontact", "run", case, "-o", tmp_path / "cut", "-q"]
     done = _kill_after(cmd, tmp_path / "cut.checkpoints" / "manifest.json", 5)
     assert 5 <= done < 12 and not (tmp_path / "cut").exists()
     p, resumed = run_case(case, tmp_path / "cut", "--restart", "-q")
     assert f"resumed after step {done}" in p.stdout
-    assert (tmp_path / "full" / "interface.csv").read_text() == (tmp_path / "cut" / "interface.csv").read_text()
+    assert (full_out / "interface.csv").read_text() == (tmp_path / "cut" / "interface.csv").read_text()
     assert [s["inst"] for s in resumed["steps"]] == [s["inst"] for s in full["steps"]]
     for name in ("fields", "interface"):
-        a, b = tmp_path / "full" / name, tmp_path / "cut" / name
+        a, b = full_out / name, tmp_path / "cut" / name
         assert a.with_suffix(".xdmf").read_text() == b.with_suffix(".xdmf").read_text(), name
         with h5py.File(a.with_suffix(".h5")) as ha, h5py.File(b.with_suffix(".h5")) as hb:
             assert sorted(ha) == sorted(hb) and len(ha) > 12, name
@@ -246,14 +253,13 @@ def test_restart_after_sigkill(tmp_path):
 
 @pytest.mark.mpi
 @pytest.mark.slow
-def test_processes_every_instant(tmp_path):
+def test_processes_every_instant(reclose):
     """2, 3 and 4 processes reproduce one at every instant of the reclosing case to 1e-10
     (LAGS_C relative to its largest value; the rest absolute: LAGS_F1, LAGS_F2 and m)."""
-    case = VALIDATION / "history_reclose3d_tetra10.toml"
-    _, one = run_case(case, tmp_path / "1", "-q")
+    _, one, _ = reclose()
     scale = max(np.abs(s["interface"]["LAGS_C"]).max() for s in one["steps"])
     for n in (2, 3, 4):
-        _, many = run_case(case, tmp_path / str(n), "-q", np_=n)
+        _, many, _ = reclose(n)
         assert all(t["ok"] for t in many["tests"])
         assert [s["inst"] for s in many["steps"]] == [s["inst"] for s in one["steps"]]
         for x, y in zip(one["steps"], many["steps"]):

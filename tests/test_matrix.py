@@ -54,10 +54,11 @@ def test_sbaij_holds_the_aij_matrix(options, case_name):
     assert info["nz_used"] == info["nz_allocated"] == full.K.getInfo()["nz_used"]
 
 
-def test_mat_type_option(tmp_path):
+def test_mat_type_option(tmp_path, run_once):
     """-mat_type aij with Cholesky gives the same interface values; an unknown type is refused."""
-    a, b = tmp_path / "a", tmp_path / "b"
-    assert run_cli(["run", CASES / "ssnv509a.toml", "-o", a]).returncode == 0
+    b = tmp_path / "b"
+    p, a = run_once(CASES / "ssnv509a.toml")          # the default run, shared (conftest.Runs)
+    assert p.returncode == 0
     p = run_cli(["run", CASES / "ssnv509a.toml", "-o", b, "-mat_type", "aij"])
     assert p.returncode == 0, p.stdout + p.stderr
     ra, rb = results(a), results(b)

@@ -467,23 +467,23 @@ def test_nan_residual_writes_results_and_plots_exit_3(tmp_path, edits):
 
 
 @pytest.mark.parametrize("key, value", [("coef_cont", "1.0e6"), ("coef_frot", "1000.0")])
-def test_absurd_coefficient_changes_nothing_at_the_dofs(tmp_path, key, value):
+def test_absurd_coefficient_changes_nothing_at_the_dofs(tmp_path, run_once, key, value):
     """At the dofs (NOEUD) with Coulomb's law in Newton the coefficients do not enter (the
     rows are scaled by E/h): 1e300 (which once overflowed to a NaN residual) gives the
     nominal answer bit for bit, without a word.  With the threshold fixed point
     (-xfc_friction_newton TRESCA) they scale rows: 1e300 is scaled back to 1e8 E/h with a
     warning, and the answer is the nominal one."""
-    case = write_case(tmp_path, CONTACT)
+    case = run_once.case(CONTACT)              # the nominal runs: one per session (conftest.Runs)
     absurd = write_case(tmp_path, edited(CONTACT, (f"{key} = {value}", f"{key} = 1.0e300")), "absurd.toml")
-    nominal, out = tmp_path / "nominal", tmp_path / "out"
-    assert run_cli(["run", case, "-o", nominal], timeout=TIMEOUT).returncode == 0
+    (p, nominal), out = run_once(case), tmp_path / "out"
+    assert p.returncode == 0
     proc = run_cli(["run", absurd, "-o", out], timeout=TIMEOUT)
     assert proc.returncode == 0, proc.stderr
     assert "contact." not in proc.stderr
     assert (out / "interface.csv").read_bytes() == (nominal / "interface.csv").read_bytes()
     tresca = ["-xfc_friction_newton", "TRESCA"]
-    nominal, out = tmp_path / "nominal_t", tmp_path / "out_t"
-    assert run_cli(["run", case, "-o", nominal, *tresca], timeout=TIMEOUT).returncode == 0
+    (p, nominal), out = run_once(case, *tresca), tmp_path / "out_t"
+    assert p.returncode == 0
     proc = run_cli(["run", absurd, "-o", out, *tresca], timeout=TIMEOUT)
     assert proc.returncode == 0, proc.stderr
     assert f"contact.{key} = 1e+300" in proc.stderr and "1e+08 times E/h instead" in proc.stderr
@@ -1046,13 +1046,13 @@ plots = false
 
 @pytest.mark.mpi
 @pytest.mark.parametrize("np_", [2, 3])
-def test_more_processes_than_cells(tmp_path, np_):
+def test_more_processes_than_cells(tmp_path, run_once, np_):
     """A process without cells skipped a collective call (the job hung forever) and then
     had no stress samples for the tests (a traceback); it now takes part with nothing."""
-    case = write_case(tmp_path, ONE_CELL)
-    one = run_cli(["run", case, "-o", tmp_path / "one"], timeout=TIMEOUT)
+    case = run_once.case(ONE_CELL)
+    one, one_out = run_once(case)              # one process: shared by both parameters
     many = run_cli(["run", case, "-o", tmp_path / "many"], np=np_, timeout=TIMEOUT)
     assert one.returncode == 0 and many.returncode == 0, many.stdout + many.stderr
-    a, b = results(tmp_path / "one"), results(tmp_path / "many")
+    a, b = results(one_out), results(tmp_path / "many")
     assert b["processes"] == np_
     assert a["tests"][0]["value"] == pytest.approx(b["tests"][0]["value"], rel=1e-12, abs=1e-12)

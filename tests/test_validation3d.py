@@ -20,7 +20,7 @@ import re
 import numpy as np
 import pytest
 
-from conftest import CASES, results, run_cli, write_case
+from conftest import CASES, results, write_case
 from xfemcontact.output import interface_csv
 
 VALIDATION = CASES / "validation"
@@ -37,14 +37,13 @@ EXACT = {"ssnv182a": (-5.0, 0.0), "ssnv182b": (-4.0, -0.5), "ssnv182c": (-5.0, 0
 
 
 @pytest.mark.parametrize("name", CASE_NAMES)
-def test_case(tmp_path, name):
+def test_case(tmp_path, run_once, name):
     """Every [[test]] OK (MIN and MAX of LAGS_C, LAGS_F1, LAGS_F2 as code_aster tests them,
     and the gap); at every interface point of interface.csv LAGS_C, LAGS_F1, LAGS_F2 and
     the tangential traction's magnitude T (basis-free) are the closed form's to 1e-10
     (SSNV182 on the coarser blocks of COARSE)."""
-    out = tmp_path / "out"
     box = COARSE.get(name[:8])
-    done = run_cli(["run", coarse(name, tmp_path, box) if box else VALIDATION / f"{name}.toml", "-o", out, "-q"])
+    done, out = run_once(coarse(name, tmp_path, box) if box else VALIDATION / f"{name}.toml", "-q")
     assert done.returncode == 0, done.stdout + done.stderr
     res = results(out)
     assert res["tests"] and all(t["ok"] for t in res["tests"])
@@ -72,15 +71,14 @@ def coarse(name, tmp_path, box):
     ("ssnv182b_like_hexa20", "box = {nx = 1, ny = 4, nz = 4,"),
     ("ssnv182b_like_tetra10", "box = {nx = 1, ny = 4, nz = 4,"),
     ("ssnv186e_like_jittered_tetra10", None)])
-def test_processes(tmp_path, name, box):
+def test_processes(tmp_path, run_once, name, box):
     """``mpirun -n 2``, ``-n 3`` and ``-n 4`` reproduce one process's interface table to
     1e-10 (LAGS_C relative to its value, LAGS_F1, LAGS_F2 absolute, gap and slip in m),
     every test OK."""
     case = coarse(name, tmp_path, box) if box else VALIDATION / f"{name}.toml"
     tables = {}
-    for n in (None, 2, 3, 4):
-        out = tmp_path / f"n{n or 1}"
-        done = run_cli(["run", case, "-o", out, "-q"], np=n)
+    for n in (None, 2, 3, 4):              # one process, ssnv186e: the run of test_case
+        done, out = run_once(case, "-q", np_=n)
         assert done.returncode == 0, done.stdout + done.stderr
         assert all(t["ok"] for t in results(out)["tests"])
         tables[n or 1] = interface_csv.read(out / "interface.csv")

@@ -243,14 +243,13 @@ def test_side_volumes_from_the_assembled_quadrature(tmp_path, cell, cut):
 # -- command line: processes ----------------------------------------------------------------
 @pytest.mark.mpi
 @pytest.mark.parametrize("name", ["box_plane_free_hexa20", "box_sphere_bonded_tetra10"])
-def test_processes_give_the_one_process_answer(tmp_path, name):
+def test_processes_give_the_one_process_answer(run_once, name):
     import h5py
 
     path = CASES / "validation" / f"{name}.toml"
     runs = {}
-    for np_ in (1, 2, 3):
-        out = tmp_path / f"np{np_}"
-        done = run_cli(["run", path, "-o", out], np=np_ if np_ > 1 else None)
+    for np_ in (1, 2, 3):                  # one process: the run of test_validation_cases_run_from...
+        done, out = run_once(path, np_=np_ if np_ > 1 else None)
         assert done.returncode == 0, done.stdout + done.stderr
         assert all(t["ok"] for t in results(out)["tests"])
         runs[np_] = out
@@ -347,14 +346,14 @@ def test_free_sides_are_separate_bodies(tmp_path):
 
 
 @pytest.mark.parametrize("name", ["box_plane_bonded_hexa20", "box_sphere_bonded_tetra10", "box_plane_free_hexa20"])
-def test_validation_cases_run_from_the_command_line(tmp_path, name):
+def test_validation_cases_run_from_the_command_line(tmp_path, run_once, name):
     """The 3-D validation cases: exit 0, every test OK, the post mesh holds the
     sub-tetrahedra of the cut cells (both sides)."""
     import meshio
 
-    done = run_cli(["run", CASES / "validation" / f"{name}.toml", "-o", tmp_path / "out"])
+    done, out = run_once(CASES / "validation" / f"{name}.toml")      # shared (conftest.Runs)
     assert done.returncode == 0, done.stdout + done.stderr
-    assert all(t["ok"] for t in results(tmp_path / "out")["tests"])
+    assert all(t["ok"] for t in results(out)["tests"])
     text = (CASES / "validation" / f"{name}.toml").read_text().replace(
         "plots = false", 'plots = false\nformats = ["xdmf", "vtu"]')
     done = run_cli(["run", write_case(tmp_path, text), "-o", tmp_path / "vtu"])
