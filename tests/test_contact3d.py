@@ -237,7 +237,8 @@ def test_coulomb_uniform_stress(tmp_path, null_pivot_detection, cell, plane, kin
 
 # -- command line, processes -----------------------------------------------------------------
 VALIDATION = ("box_plane_contact_hexa20", "box_plane_opening_tetra10", "box_incline_stick_hexa20",
-              "box_incline_slip_tetra10", "box_sphere_stick_tetra10", "box_cylinder_stick_tetra10")
+              "box_incline_slip_tetra10", "box_sphere_stick_tetra10", "box_cylinder_stick_tetra10",
+              "sphere_stick_jittered_tetra10")
 
 
 @pytest.mark.parametrize("name", VALIDATION)
@@ -255,7 +256,8 @@ def test_validation_cases(run_once, name):
     assert r["dofs"]["LAGS_F2"] == r["dofs"]["LAGS_C"] > 0
 
 
-@pytest.mark.parametrize("name", ["box_incline_stick_hexa20", "box_incline_slip_tetra10", "box_cylinder_stick_tetra10"])
+@pytest.mark.parametrize("name", ["box_incline_stick_hexa20", "box_incline_slip_tetra10", "box_cylinder_stick_tetra10",
+                                  "sphere_stick_jittered_tetra10"])
 def test_processes_give_the_answer_of_one(run_once, name):
     """``mpirun -n 2`` and ``-n 3`` reproduce one process's interface.csv to 1e-10 (the
     gap, zero, to 1e-10 of the displacements), in slip too: the slip direction is a function

@@ -16,6 +16,7 @@ xfemcontact reads them back into code_aster's.
 
     python cases/meshes/jittered_tetra10.py              # from the checkout, with the venv's python
     python cases/meshes/jittered_tetra10.py --ssnv186e
+    python cases/meshes/jittered_tetra10.py --cube 6     # also 10, 14: cube<N>_jittered_tetra10.msh
 """
 import argparse
 import pathlib
@@ -26,7 +27,11 @@ from scipy.spatial import Delaunay
 
 #: (size (m), grid points, jitter (m), output file) of each mesh this writes
 MESHES = {"default": ((1.0, 1.0, 2.0), (5, 5, 9), 0.06, "jittered_tetra10.msh"),
-          "ssnv186e": ((1.0, 20.0, 20.0), (3, 13, 13), 0.15, "ssnv186e_jittered_tetra10.msh")}
+          "ssnv186e": ((1.0, 20.0, 20.0), (3, 13, 13), 0.15, "ssnv186e_jittered_tetra10.msh"),
+          # the unit cube on N + 1 points a side, jittered by up to 0.3 of a step (the sphere of
+          # cases/validation/sphere_stick_jittered_tetra10.toml under refinement)
+          **{f"cube{n}": ((1.0, 1.0, 1.0), (n + 1,) * 3, 0.3 / n, f"cube{n}_jittered_tetra10.msh")
+             for n in (6, 10, 14)}}
 SEED = 7
 FACES = (("left", 0, 0), ("right", 0, 1), ("front", 1, 0), ("back", 1, 1), ("bottom", 2, 0), ("top", 2, 1))
 # our (code_aster's) tetrahedron: mid-edge nodes of 1-2, 2-3, 3-1, 1-4, 2-4, 3-4; the
@@ -78,7 +83,9 @@ def tetra10(size=MESHES["default"][0], n=MESHES["default"][1], jitter=MESHES["de
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--ssnv186e", action="store_true", help="the mesh of SSNV186E's block")
-    size, n, jitter, name = MESHES["ssnv186e" if parser.parse_args().ssnv186e else "default"]
+    parser.add_argument("--cube", type=int, choices=(6, 10, 14), help="the unit cube on N + 1 points a side")
+    args = parser.parse_args()
+    size, n, jitter, name = MESHES["ssnv186e" if args.ssnv186e else f"cube{args.cube}" if args.cube else "default"]
     out = pathlib.Path(__file__).with_name(name)
     meshio.write(out, tetra10(size, n, jitter), file_format="gmsh22", binary=False)
     print(f"wrote {out}")
