@@ -7,43 +7,25 @@ I) LAGS_C = -p at every interface point.  Before: R = 2 m on HEXA20 crossed the 
 of 0.083 m^2 in the interface, 15 dofs open, LAGS_C 0.69 p off); R = 20 m had no full cell
 (dofs up to -1.6e4 Pa, 6 to 10 dofs open).
 """
+import importlib.util
+
 import numpy as np
 import pytest
 
-from conftest import write_case
+from conftest import ROOT, write_case
 from xfemcontact._petsc import PETSc
 from xfemcontact.case import load_case
 from xfemcontact.model import Model
 
-P = 100.0
+_spec = importlib.util.spec_from_file_location("contact3d_caps", ROOT / "bench" / "contact3d_caps.py")
+caps = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(caps)
+P = caps.P
 
 
 def cap(cell, radius, top=0.34, n=3):
-    return f"""
-        [mesh]
-        box = {{nx = {n}, ny = {n}, nz = {n}, x = [0, 1], y = [0, 1], z = [0, 1], cell = "{cell}"}}
-        [material]
-        E = 2.0e5
-        nu = 0.3
-        model = "3D"
-        [interface]
-        level_set = "sqrt((x - 0.5)**2 + (y - 0.5)**2 + (z - ({top} - {radius}))**2) - {radius}"
-        law = "contact"
-        [contact]
-        frottement = "SANS"
-        [[dirichlet]]
-        group = "left"
-        DX = 0
-        [[dirichlet]]
-        group = "front"
-        DY = 0
-        [[dirichlet]]
-        group = "bottom"
-        DZ = 0
-        [[traction]]
-        group = ["right", "back", "top"]
-        PRES = {P}
-        """
+    """The case of bench/contact3d_caps.py (one text for the bench and the tests)."""
+    return caps.case(cell, n, radius, top)
 
 
 def cap_area(radius, top=0.34, n=1000):

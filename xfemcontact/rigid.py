@@ -52,14 +52,7 @@ def rigid_modes(p: FloatArray, component: IntArray, centre: FloatArray, size: fl
 
 def free_motions(rows: FloatArray, d: int) -> str | None:
     """The rigid motions ``rows`` (see :func:`rigid_modes`) leave free, in words, or None."""
-    m = d + (1 if d == 2 else 3)
-    if len(rows) == 0:
-        null = np.eye(m)
-    else:                             # padded to m rows: V holds the whole null space
-        padded = np.vstack([rows, np.zeros((max(0, m - len(rows)), m))])
-        _, sv, vt = np.linalg.svd(padded, full_matrices=False)
-        rank = int((sv > RANK_TOL * sv.max()).sum()) if sv.max() > 0 else 0
-        null = vt[rank:].T                                           # (m, free)
+    null = null_space(rows.reshape(-1, d + (1 if d == 2 else 3)))[0]
     if null.shape[1] == 0:
         return None
     comps = "DX DY DZ".split()[:d]
@@ -174,24 +167,33 @@ def check(case: Case, raw: RawMesh, phi: FloatArray | None = None) -> str | None
     ``free``): each side is then a body (:func:`pieces`).  A node of a Dirichlet group
     holds its own side (LN >= 0: +) in every cell around it; where the group's edge or
     face reaches the interface, and for node groups, both sides."""
-    x, cells = raw.points, raw.cells
-    d = x.shape[1]
-    label, exists = (np.repeat(bodies(raw), 2), np.tile([False, True], len(cells))) if phi is None \
+    d = raw.points.shape[1]
+    label, exists = (np.repeat(bodies(raw), 2), np.tile([False, True], len(raw.cells))) if phi is None \
         else pieces(raw, phi)
     held_nodes, component, held_body = dirichlet_rows(case, raw, phi, label, exists)
     size = _size(raw)
     for b in np.unique(label[exists]):
-        mine = held_body == b
-        in_body = (label == b) & exists
-        bcells = np.flatnonzero(in_body) // 2
-        centre = x[cells[bcells]].reshape(-1, d).mean(axis=0)
-        rows = rigid_modes(x[held_nodes[mine]], component[mine], centre, size)
+        in_body, bcells, centre, rows = _body(raw, b, label, exists, held_nodes, component, held_body, size)
         problem = free_motions(rows, d)
         if problem:
             return f"{case.source}: dirichlet: rigid-body motion not prevented" + \
                 _where(len(np.unique(label[exists])), len(bcells), centre, phi is not None,
                        int(np.flatnonzero(in_body)[0]) % 2) + f": {problem}"
     return None
+
+
+def _body(raw: RawMesh, b: int, label: IntArray, exists: BoolArray, held_nodes: IntArray,
+          component: IntArray, held_body: IntArray,
+          size: float) -> tuple[BoolArray, IntArray, FloatArray, FloatArray]:
+    """Body ``b`` of the pieces ``label``, ``exists``: which pieces it holds ``(2 nc,)``, its
+    cells, its centre (m) and the rows of its imposed components (:func:`dirichlet_rows`,
+    :func:`rigid_modes` about that centre)."""
+    x, d = raw.points, raw.points.shape[1]
+    in_body = (label == b) & exists
+    bcells = np.flatnonzero(in_body) // 2
+    centre = x[raw.cells[bcells]].reshape(-1, d).mean(axis=0)
+    mine = held_body == b
+    return in_body, bcells, centre, rigid_modes(x[held_nodes[mine]], component[mine], centre, size)
 
 
 def _size(raw: RawMesh) -> float:
@@ -330,19 +332,14 @@ def held_through_normals(case: Case, raw: RawMesh, phi: FloatArray,
     (:func:`interface_samples`) of its cells: the normal component n . u of each rigid
     mode there, as if the other side were held.  Unilateral contact holds only while it
     is pressed: a body the normals hold can still lift off (the solve says so)."""
-    x, cells = raw.points, raw.cells
-    d = x.shape[1]
+    d = raw.points.shape[1]
     label, exists = pieces(raw, phi)
     held_nodes, component, held_body = dirichlet_rows(case, raw, phi, label, exists)
     cell, p, n = interface_samples(raw, phi)
     size = _size(raw)
     warnings: list[str] = []
     for b in np.unique(label[exists]):
-        in_body = (label == b) & exists
-        bcells = np.flatnonzero(in_body) // 2
-        centre = x[cells[bcells]].reshape(-1, d).mean(axis=0)
-        mine = held_body == b
-        rows = rigid_modes(x[held_nodes[mine]], component[mine], centre, size)
+        in_body, bcells, centre, rows = _body(raw, b, label, exists, held_nodes, component, held_body, size)
         touch = in_body[2 * cell] | in_body[2 * cell + 1]
         if free_motions(rows, d) is None or not touch.any():
             continue                  # held, or not by the interface (the plain check's case)

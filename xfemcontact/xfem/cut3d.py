@@ -201,14 +201,10 @@ def project_midpoints(el: Element, phi_cell: FloatArray, pa: FloatArray, pb: Flo
     mid = 0.5 * (pa + pb)
     c = pb - pa
 
-    def unit(v: FloatArray) -> FloatArray:
-        n = np.linalg.norm(v, axis=-1, keepdims=True)
-        return np.where(n > 0, v / np.where(n > 0, n, 1.0), 0.0)
-
     g = grad_phi(el, phi_cell, mid)
-    for u in (unit(face_normal), unit(c)):
+    for u in (_unit(face_normal), _unit(c)):
         g = g - np.einsum("kmi,kmi->km", g, u)[..., None] * u
-    d = unit(g)
+    d = _unit(g)
     on_face = np.abs(face_normal).sum(axis=-1) > 0
     if xc is not None and on_face.any():
         d = np.where(on_face[..., None], _physical_direction(el, phi_cell, xc, mid, c, face_normal), d)
@@ -236,6 +232,12 @@ def project_midpoints(el: Element, phi_cell: FloatArray, pa: FloatArray, pb: Flo
     return p, off
 
 
+def _unit(v: FloatArray) -> FloatArray:
+    """Unit vectors along the last axis of ``v`` (zero where ``v`` is)."""
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return np.where(n > 0, v / np.where(n > 0, n, 1.0), 0.0)
+
+
 def _physical_direction(el: Element, phi_cell: FloatArray, xc: FloatArray, mid: FloatArray,
                         c: FloatArray, face_normal: FloatArray) -> FloatArray:
     """Reference directions ``(k, m, 3)`` of :func:`project_midpoints`' search for edges on
@@ -247,17 +249,13 @@ def _physical_direction(el: Element, phi_cell: FloatArray, xc: FloatArray, mid: 
         n = np.linalg.solve(np.swapaxes(J, -1, -2), face_normal[..., None])[..., 0]   # covariant
         e = np.einsum("kmij,kmj->kmi", J, c)                                          # tangent
 
-    def unit(v: FloatArray) -> FloatArray:
-        size = np.linalg.norm(v, axis=-1, keepdims=True)
-        return np.where(size > 0, v / np.where(size > 0, size, 1.0), 0.0)
-
-    n = unit(n)
-    e = unit(e - np.einsum("kmi,kmi->km", e, n)[..., None] * n)
+    n = _unit(n)
+    e = _unit(e - np.einsum("kmi,kmi->km", e, n)[..., None] * n)
     for u in (n, e):
         g = g - np.einsum("kmi,kmi->km", g, u)[..., None] * u
     with np.errstate(divide="ignore", invalid="ignore"):
-        d = np.linalg.solve(J, unit(g)[..., None])[..., 0]
-    return np.where(np.isfinite(d), unit(d), 0.0)
+        d = np.linalg.solve(J, _unit(g)[..., None])[..., 0]
+    return np.where(np.isfinite(d), _unit(d), 0.0)
 
 
 def _line_in_tet(tet: FloatArray, p: FloatArray, d: FloatArray) -> tuple[FloatArray, FloatArray]:
