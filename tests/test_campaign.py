@@ -172,10 +172,7 @@ def test_straight_without_coefficients(run_once, name):
 
 
 # --- slow: the rest of the table at the natural coefficients ---------------------------------
-SLOW_XFAIL = {
-    "limit-D_q8s_a-10_vfit_nu0": "interface 1e-7 h from a vertex, fitted onto it (readjustment rule 2): LAGS_C "
-                                 "off by 1.4e-5 and gap by 3e-7 of the slip when the interface slides",
-}
+SLOW_XFAIL: dict[str, str] = {}
 SLOW = [pytest.param(c.name, marks=[pytest.mark.slow] + ([xfail(SLOW_XFAIL[c.name])] if c.name in SLOW_XFAIL else []))
         for c in campaign.TABLE if c.name not in set(FAST) | {"stick-D_q8u_a+60_gen_nu3c", "above-R_q8u_a+90_gen_nu0"}]
 

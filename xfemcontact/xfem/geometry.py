@@ -22,8 +22,8 @@ interface to the node's cell corner.  The ratio falls like (d / h)^4 for the
 nodes of a cell whose corner the interface clips (measured at d = 1e-3 h: 5e-13
 on TRIA6 above a row of vertices, 7e-12 on QUAD8 past one vertex; tests/test_xfem_bulk.py),
 like d / h elsewhere (QUAD8 above a row of vertices: 1.2e-4),
-and readjustment already sends the interface through a vertex within 1e-6 h of
-it.  DROP_RATIO = 1e-16 keeps every node down to d of about 1e-4 h; with 1e-12
+and readjustment already sends the interface through the vertices of an edge it
+runs along within 1e-6 h of them (through a lone vertex within 1e-9 h).  DROP_RATIO = 1e-16 keeps every node down to d of about 1e-4 h; with 1e-12
 the TRIA6 nodes at d = 1e-3 h were dropped and a slip of 8e-4 m came out 2.5e-10
 m off in the gap (bench/campaign.py, limit-D_t6s_a+00_vtx); keeping every node
 (1e-26) left a slanted interface 1e-6 h from a QUAD8 vertex with a
