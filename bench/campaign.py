@@ -897,6 +897,9 @@ def _collect(job, rc, wall, stderr):
     if rc in (0, 1, 3) and path.exists():
         res = json.loads(path.read_text())
         it = res.get("iterations", {})
+        cond = res.get("conditions") or {}
+        r["conditions"] = max((v for k, v in cond.items() if v is not None and k not in CONDITION_SCALES),
+                              default=None)
         r.update(converged=bool(res.get("converged")), newton=it.get("newton"),
                  warnings=res.get("warnings", []), tests=res.get("tests", []),
                  fallbacks=int(it.get("line_search_retries", 0) or 0) + int(it.get("frozen_status_solves", 0) or 0))
@@ -907,6 +910,10 @@ def _collect(job, rc, wall, stderr):
         lines = [ln for ln in stderr.splitlines() if ln.strip()]
         r["error"] = (lines[-1] if lines else f"exit {rc}")[:300]
     return r
+
+
+#: the scales of results.json ``conditions`` (the rest are violations of the conditions at the dofs)
+CONDITION_SCALES = ("pressure_scale_pa", "jump_scale_m")
 
 
 def run_jobs(jobs, slots=2, keep=False, timeout=900, progress=True):
@@ -988,6 +995,7 @@ def analyse(entry, jobs, procs0):
                fallbacks=sum(j.result["fallbacks"] for j in sweep),
                forced=sum(any("convergence forced" in w for w in j.result["warnings"]) for j in sweep),
                not_converged=[j.label for j in sweep if not j.result["converged"]],
+               conditions=max((j.result.get("conditions") or 0.0 for j in ok_runs), default=None),
                errors_by_run={}, spread=None, spread_abs=None, max_abs_f1=None, max_c=None, err=None,
                procs_diff={}, absent=None)
     refs = _references(entry)
@@ -1083,8 +1091,8 @@ def _e(v, fmt="{:.1e}"):
 def markdown(rows, header):
     out = [header, "",
            "| case | mesh | conv | exit | Newton | fallb. / forced | spread C / F1 / gap / slip | max abs F1 | max C (Pa) | "
-           "worst err C / F1 / gap / slip | np 2, 3 diff | absent |",
-           "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+           "dof cond. | worst err C / F1 / gap / slip | np 2, 3 diff | absent |",
+           "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         sp = r["spread"]
         sp_txt = " / ".join(_e(sp[f]) for f in FIELDS) if isinstance(sp, dict) else _e(sp)
@@ -1098,7 +1106,8 @@ def markdown(rows, header):
         nt = "-" if r["newton_min"] is None else f"{r['newton_min']}-{r['newton_max']}"
         out.append(f"| {r['case']} | {r['mesh']} | {r['converged']}/{r['runs']} | "
                    f"{','.join(map(str, r['exit_codes']))} | {nt} | {r['fallbacks']} / {r['forced']} | {sp_txt} | "
-                   f"{_e(r['max_abs_f1'], '{:.4g}')} | {_e(r['max_c'], '{:.2e}')} | {er_txt} | {pd} | {ab_txt} |")
+                   f"{_e(r['max_abs_f1'], '{:.4g}')} | {_e(r['max_c'], '{:.2e}')} | {_e(r.get('conditions'))} | "
+                   f"{er_txt} | {pd} | {ab_txt} |")
     return "\n".join(out) + "\n"
 
 
@@ -1109,7 +1118,10 @@ the total Newton iterations (results.json `iterations.newton`) over the converge
 *fallb. / forced* line-search retries + frozen-status solves summed over the sweep / runs with a
 "convergence forced" warning; *spread* the largest (max - min) over the sweep at any interface
 point, LAGS_C relative to the pressure scale, LAGS_F1 absolute, gap and slip relative to the
-displacement scale; *max abs F1*, *max C* over all converged sweep runs and points; *worst err*
+displacement scale; *max abs F1*, *max C* over all converged sweep runs and points; *dof cond.*
+the largest violation of a condition of the law at the multiplier dofs over the converged sweep
+runs (results.json `conditions`: tension, interpenetration, the two complementarities, the
+friction bound, the slip direction, the threshold, each relative to its scale); *worst err*
 the largest error against the closed form over the converged sweep runs, same scales; *np 2, 3
 diff* the largest difference of 2 and 3 processes from 1 process at the nominal coefficients
 (same scales); *absent* the run without coef_cont / coef_frot in the case (product defaults).

@@ -172,6 +172,23 @@ def test_both_newtons_give_the_same_answer(tmp_path, run_once):
     assert r2["linear_solver"]["coupled_jacobians"] == 0
 
 
+def test_conditions_at_the_dofs(tmp_path, run_once):
+    """results.json ``conditions``: every condition of the law holds at the dofs of the
+    converged slip to round-off; a threshold loop stopped at 1e-2 (-friction_snes_rtol)
+    leaves thresholds that are not the pressures, and the report says by how much."""
+    r, _ = shared_ok(run_once, SLIP)
+    cond = r["conditions"]
+    assert cond["pressure_scale_pa"] == pytest.approx(100.0) and cond["jump_scale_m"] == pytest.approx(8e-4)
+    measures = ("tension", "interpenetration", "contact_complementarity", "friction_excess",
+                "friction_complementarity", "slip_direction", "threshold")
+    assert max(cond[k] for k in measures) <= 1e-13, cond
+    run_cli(["run", SLIP, "-o", tmp_path / "loose", "-q", "-xfc_friction_newton", "TRESCA", "-friction_snes_rtol", "1e-2"])
+    loose = results(tmp_path / "loose")["conditions"]
+    assert 1e-4 < loose["threshold"] < 1e-1, loose
+    ok, _ = shared_ok(run_once, CASES / "ssnv509a.toml")          # sticks: jumps of round-off
+    assert max(ok["conditions"][k] for k in measures) <= 1e-13, ok["conditions"]
+
+
 def test_sticking_keeps_one_symmetric_factorisation(run_once):
     """SSNV509 a sticks everywhere: nothing couples, one Newton iteration, one Cholesky
     factorisation of the symmetric (SBAIJ) matrix."""

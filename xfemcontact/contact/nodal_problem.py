@@ -175,6 +175,11 @@ DIRECTION_SETTLED = 1e-10
 #: the run at ITER_GLOB_MAXI
 GUARDED_DIRECTION_SETTLED = 1e-6
 
+#: the pressure scale of :meth:`NodalContactProblem.conditions` where every dof opens: this
+#: fraction of E / h times the largest jump (the pressures are then round-off of the stresses
+#: the loads cause, which the jumps measure only roughly)
+OPEN_PRESSURE = 1e-3
+
 
 class NodalContactProblem(InterfaceProblem):
     """Contact and friction at the multiplier dofs (see the module documentation)."""
@@ -1141,6 +1146,69 @@ class NodalContactProblem(InterfaceProblem):
     def segment_values(self, x: PETSc.Vec, xi: FloatArray, near: IntArray) -> dict[str, FloatArray]:
         el = self._op.mesh.element
         return _interpolate(el.shape_linear(xi), *self.vertex_values(x), self.mu, points="kp")
+
+    def conditions(self, x: PETSc.Vec) -> dict[str, Any]:
+        """How far the conditions of :mod:`xfemcontact.contact.nodal` are from holding at the
+        dofs of ``x`` (a converged state), whatever the statuses say: the largest violation
+        of each over every dof of every process (0 where none), relative to the scales
+        returned with them: P (Pa) the largest |LAGS_C| and J (m) the largest mean gap or
+        slip, J at least P / kappa and P at least OPEN_PRESSURE kappa J (kappa = E / h, the
+        stiffness scale of the status test), and mu P.
+
+        * ``tension``: max lam_a / P (<= 0); ``interpenetration``: max -gn_a / J (<= 0);
+        * ``contact_complementarity``: max over dofs of min(|lam_a| / P, |gn_a| / J) (0:
+          each dof is open without pressure, or closed without gap);
+        * ``friction_excess``: max (|T_a| - mu |s_a|) / (mu P) (<= 0, s_a the dof's threshold),
+          over the dofs in contact with a threshold (friction acts there);
+        * ``friction_complementarity``: max over these dofs of min((mu |s_a| -
+          |T_a|) / (mu P), |gt_a| / J) (0: each dof sticks, or slips at the bound);
+        * ``slip_direction``: max over slipping dofs (|gt_a| > 1e-6 J) of (1 - cos) / 2 of the
+          angle between T_a and gt_a (0: the traction along the slip, 1: against it);
+        * ``threshold``: max |s_a - min(lam_a, 0)| / P (0 once Coulomb's law holds: the
+          threshold is the pressure; the threshold fixed point stops at RESI_FROT).
+
+        ``gt`` is the slip of the load step (the law is incremental).  Friction entries are
+        None without friction, tension and interpenetration None for ``glissiere``
+        (bilateral: contact once made is kept)."""
+        ve, h, lam, T = self._values(x)
+        gn = self._gap_and_tolerances(h, lam)[0]
+        slot = self.slot
+        gt = self._mean_slip(h if self._h0 is None else h - self._h0, lam.shape)
+        vec = (lambda a: a[..., None]) if self._nf == 1 else self._split
+        Tv, gv = vec(T), vec(gt)                                    # (k, m, nf)
+        Tn, gtn = np.linalg.norm(Tv, axis=-1), np.linalg.norm(gv, axis=-1)
+        # where nothing opens or slips the jumps are round-off themselves: J is at least the
+        # elastic displacement of the pressures over a cell (P h / E); where all opens the
+        # pressures are, and P is at least OPEN_PRESSURE times the stress of the jumps over a
+        # cell (a slip of a whole block strains nothing: E J / h overstates the stresses)
+        P0 = self._max(np.where(slot, lam, 0.0))
+        J0 = max(self._max(np.where(slot, gn, 0.0)), self._max(np.where(slot, gtn, 0.0)))
+        P, J = max(P0, OPEN_PRESSURE * self._kappa * J0), max(J0, P0 / self._kappa)
+        rel = (lambda a, scale: a / scale if scale > 0 else np.zeros_like(a))
+
+        def top(a, mask):
+            local = float(np.max(np.where(mask, a, -np.inf), initial=-np.inf))
+            return max(self._mpi.allreduce(local, op=MPI.MAX), 0.0)
+
+        out: dict[str, Any] = {"pressure_scale_pa": P, "jump_scale_m": J}
+        if not self.bilateral:
+            out["tension"] = top(rel(lam, P), slot)
+            out["interpenetration"] = top(rel(-gn, J), slot)
+        out["contact_complementarity"] = top(np.minimum(rel(np.abs(lam), P), rel(np.abs(gn), J)), slot)
+        if not self.friction:
+            out.update(friction_excess=None, friction_complementarity=None, slip_direction=None,
+                       threshold=None)
+            return out
+        on, bound = self._bounds()                 # friction acts where in contact
+        mP = self.mu * P
+        live = on & (bound > 0)
+        out["friction_excess"] = top(rel(Tn - bound, mP), live)
+        out["friction_complementarity"] = top(np.minimum(rel(bound - Tn, mP), rel(gtn, J)), live)
+        slipping = live & (gtn > 1e-6 * J)
+        cos = np.einsum("kmc,kmc->km", Tv, gv) / np.where(slipping, np.maximum(Tn * gtn, 1e-300), 1.0)
+        out["slip_direction"] = top(0.5 * (1.0 - cos), slipping)
+        out["threshold"] = top(rel(np.abs(self.s[:, :self._m] - np.minimum(lam, 0.0)), P), slot)
+        return out
 
     def summary(self) -> dict[str, Any]:
         out = dict(self.space.summary())

@@ -338,5 +338,10 @@ class InterfaceProblem:
         the statuses of the Gauss points ``near (p,)`` (None: no multipliers)."""
         return None
 
+    def conditions(self, x: PETSc.Vec) -> dict[str, Any] | None:
+        """How far the law's conditions are from holding at ``x`` (None: no conditions to
+        check; see :meth:`xfemcontact.contact.nodal_problem.NodalContactProblem.conditions`)."""
+        return None
+
     def summary(self) -> dict[str, Any] | None:
         return None

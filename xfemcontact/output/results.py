@@ -38,6 +38,7 @@ def summary(model: Model, converged: bool, reason: int, outcomes: Iterable[Outco
         "linear_solver": model.solver_info(),
         "geometry": geometry_summary(model),
         "multipliers": model.problem.summary() if model.problem is not None else None,
+        "conditions": model.problem.conditions(model.x) if model.problem is not None else None,
         "timings": {k: round(v, 4) for k, v in timing.TIMINGS.items()},
         "solver_events": timing.solver_events(model.comm),
         "timing_steps": {k: round(v, 4) for k, v in timing.STEPS.items()},
