@@ -59,7 +59,9 @@ Results: ``point_values(x)`` (the interface points: 2-D the segment ends, 3-D th
 facets' Gauss points), ``segment_values(x, xi, near)`` (2-D: any points of the
 segments), ``surface_values(x, xi)`` (3-D: any points of the interface cells, such
 as the facets' nodes), ``vertex_values(x)`` (the multiplier fields at the vertices of
-the interface cells, None without multipliers), ``summary()``, ``largest_threshold()``;
+the interface cells, None without multipliers), ``conditions(x)`` (how far the law's
+conditions are from holding at the dofs of ``x``: results.json ``conditions``, None
+where the problem has none to check), ``summary()``, ``largest_threshold()``;
 read-only facts ``comm``, ``segments``, ``points``, ``space``, ``rep_index``,
 ``phi`` (None without multipliers), ``law`` (the Gauss-point law, None when the
 conditions are written at the dofs), ``mu`` and ``friction_unknown``
