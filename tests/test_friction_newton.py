@@ -214,20 +214,79 @@ def test_bad_friction_newton_option(tmp_path):
     assert "-xfc_friction_newton FAST: unknown value (expected one of COULOMB, TRESCA)" in p.stderr
 
 
-def test_cycle_guard(tmp_path):
+@pytest.mark.parametrize("line_search, newton", [("NONE", 21), ("MERIT", 25)])
+def test_cycle_guard(tmp_path, line_search, newton):
     """At the Coulomb limit on unstructured quadrangles (dofs with tiny lumped weights
-    at the ends of the interface) the active sets of the semi-smooth Newton cycle: the
-    guard hands the step to the threshold loop, Coulomb's law goes back into Newton once that
-    loop has settled (nodal_problem.REARM_CHANGE), and the run ends exact."""
+    at the ends of the interface) the active sets of the semi-smooth Newton cycle (NONE: full
+    steps) or find no status consistent with the others' for a dof (MERIT: the merit function
+    stalls): the guard hands the step to the threshold loop, Coulomb's law goes back into Newton
+    once that loop has settled (nodal_problem.REARM_CHANGE), and the run ends exact."""
     c = {r.name: r for r in campaign.TABLE}["limit-D_q8u3x2_a+20_gen_nu0"]
     path = tmp_path / "case.toml"
     path.write_text(campaign.case_text(c, meshes=str(MESHES)))
-    r = run_ok([path], tmp_path / "o")
+    r = run_ok([path, "-xfc_friction_line_search", line_search], tmp_path / "o")
     assert all(t["ok"] for t in r["tests"]), r["tests"]
     assert r["multipliers"]["cycle_guards"] >= 1
     assert r["multipliers"]["coulomb_rearms"] >= 1
-    # measured: 25 before Coulomb's law went back into Newton after the guard, 21 with it
-    assert r["iterations"]["newton"] <= 21
+    # measured: 25 before Coulomb's law went back into Newton after the guard, 21 with it;
+    # with the line search 25 (linesearch.STALL: 8 iterations without progress before the guard)
+    assert r["iterations"]["newton"] <= newton
+
+
+@pytest.mark.parametrize("case, line_search, newton", [
+    # issue 18: the chatter of a narrow stick zone between slip zones of opposite directions
+    # (34 Newton iterations with full steps and the guard, 17 of them before it)
+    ("campaign/curved_arc_shear_quad8.toml", "MERIT", 18),
+    ("campaign/curved_arc_shear_quad8.toml", "NONE", 34),
+    # SSNV509 with mu = 0.3: a period-7 cycle of full steps (30 with the guard)
+    ("validation/low_friction.toml", "MERIT", 14),
+])
+def test_line_search(tmp_path, case, line_search, newton):
+    """Newton's steps damped on the merit function of the complementarity functions
+    (solver/linesearch.py): the semi-smooth Newton converges with Coulomb's law in it, no
+    guard, no forced status loop; ``-xfc_friction_line_search NONE`` (the default) is the
+    full-step Newton with the cycle guard."""
+    r = run_ok([CASES / case, "-xfc_friction_line_search", line_search], tmp_path / "o")
+    assert all(t["ok"] for t in r["tests"]), r["tests"]
+    assert r["iterations"]["newton"] <= newton
+    assert not any("forced" in w for w in r["warnings"])
+    if line_search == "MERIT":
+        assert r["multipliers"]["cycle_guards"] == 0
+        assert r["iterations"]["damped_steps"] >= 1
+
+
+def test_merit_descent(tmp_path):
+    """Newton's step descends the merit function: theta(x - eps y) = theta(x) (1 - 2 eps) to
+    first order at every iterate of the arc under shear (the statuses of the augmented tests
+    are the branches of the complementarity functions)."""
+    from xfemcontact.case.load import load_case
+    from xfemcontact.model import Model
+    from xfemcontact.solver.nonlinear import NonlinearSolver
+
+    ratios = []
+    opts = PETSc.Options()
+    opts.setValue("xfc_friction_line_search", "MERIT")
+    try:
+        model = Model(load_case(CASES / "campaign" / "curved_arc_shear_quad8.toml"))
+        model.solver = solver = NonlinearSolver(model)
+    finally:
+        opts.delValue("xfc_friction_line_search")
+    ls = solver.line_search
+    assert ls is not None
+    inner = ls.__call__
+
+    def check(x, y):
+        if ls.problem.merit_active:
+            theta = ls.merit(x)
+            w = x.duplicate()
+            w.waxpy(-1e-7, y, x)
+            ratios.append((ls.merit(w) - theta) / (-2e-7 * theta))
+        return inner(x, y)
+
+    solver.newton.setLineSearchPreCheck(check)
+    assert model.solve() > 0
+    assert len(ratios) >= 5
+    assert np.allclose(ratios, 1.0, atol=0.05), ratios
 
 
 @pytest.mark.parametrize("np_", [2, 3])

@@ -235,6 +235,19 @@ class Model:
                 self.problem.add_product(self._K_int, x, f, -1.0)
             self.problem.add_residual(x, f)
 
+    def merit(self, x: PETSc.Vec, f: PETSc.Vec) -> float:
+        """The squared norm of the merit function at ``x`` (the problem's
+        :meth:`~xfemcontact.contact.nodal_problem.NodalContactProblem.merit_norm`: the bulk
+        rows K_bulk x + f0 with the interface tractions of every dof, and the complementarity
+        functions at the dofs); ``f`` a work vector."""
+        assert self.problem is not None
+        self.K.mult(x, f)
+        f.axpy(1.0, self.f0)
+        if self._K_int is not None:
+            self.problem.add_product(self._K_int, x, f, -1.0)
+        self.problem.add_merit_residual(x, f)
+        return self.problem.merit_norm(f) ** 2
+
     def jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         """J = K_bulk + K_int(x): replace the previous interface tangent in place.
 

@@ -106,6 +106,12 @@ OPTIONS = {o.name: o for o in (
            "threshold loop, contact statuses in the status loop: the fixed point of earlier "
            "versions, slower)",
            choices=("COULOMB", "TRESCA"), default_doc="COULOMB"),
+    Option("friction_line_search", "choice",
+           "2-D, integration = NOEUD with Coulomb's law in Newton: MERIT (Newton's statuses from "
+           "the augmented tests at the iterate, its steps damped by a non-monotone backtracking "
+           "line search on the squared norm of the complementarity functions: fewer Newton "
+           "iterations on the curved campaign cases) or NONE (full steps and the cycle guard)",
+           choices=("MERIT", "NONE"), default_doc="NONE"),
     Option("mesh_max_mb", "float",
            "largest amount of data (MB) a mesh file may declare (node coordinates, cells, "
            "fields, after decompression); larger files are refused before they are read",

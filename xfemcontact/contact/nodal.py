@@ -211,3 +211,46 @@ def semi_multiplier(T: FloatArray, s: FloatArray, mu: float) -> FloatArray:
     musig = mu * s
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(musig != 0, T / np.where(musig != 0, musig, 1.0), 0.0)
+
+
+def contact_status_augmented(chi: IntArray, lam: FloatArray, gn: FloatArray, r: float, tol_lam: float,
+                             tol_gap: float) -> IntArray:
+    """Contact statuses of the augmented test at the iterate alone (the branch of
+    :func:`complementarity`'s min): in contact where lam + r gn < 0, out where > 0; within
+    the round-off band tol_lam + r tol_gap of zero a dof keeps its status ``chi``."""
+    q = lam + r * gn
+    band = tol_lam + r * tol_gap
+    return np.where(q < -band, 1, np.where(q > band, 0, chi)).astype(chi.dtype)
+
+
+def friction_status_augmented(slip: FloatArray, active: BoolArray, T: FloatArray, gt: FloatArray,
+                              bound: FloatArray, r: float, tol_slip: float = 0.0) -> FloatArray:
+    """Friction statuses of the augmented test at the iterate alone (the branch of
+    :func:`complementarity`'s projection): slip in the direction of the trial traction
+    T + r gt where its magnitude exceeds the bound, stick where it does not -- a direct
+    reversal included, so that the status is a function of the iterate.  Within the
+    round-off band of :func:`friction_status` a dof keeps a slip along the trial traction."""
+    trial = T + r * gt
+    finite = np.isfinite(bound)
+    b = np.where(finite, bound, 0.0)
+    band = b * ROUNDOFF + r * tol_slip
+    new = np.where(finite & (np.abs(trial) > b + band), np.sign(trial), 0.0)
+    keep = finite & (np.abs(trial) >= b - band) & (slip * trial > 0)
+    return np.where(active, np.where(keep, slip, new), 0.0)
+
+
+def complementarity(lam: FloatArray, T: FloatArray, gn: FloatArray, gt: FloatArray, mu: float,
+                    r: float, friction: bool = True) -> tuple[FloatArray, FloatArray]:
+    """The conditions as functions of the iterate alone (Pa; Alart and Curnier's
+    complementarity functions with the bound of Newton): ``C_n = lam - min(0, lam + r gn)``
+    and ``C_t = T - proj_[-b, b](T + r gt)``, ``b = mu max(0, -lam)`` where lam + r gn < 0 and
+    0 elsewhere (0 without ``friction``: C_t = T).  Both vanish exactly at the solutions of
+    the conditions, whatever r > 0; Newton's statuses with the same r
+    (:func:`contact_status_augmented`, :func:`friction_status_augmented`) are the branches of
+    the min and of the projection, so that Newton's step is the (generalised) Newton step of
+    these functions and descends their squared norm."""
+    q = lam + r * gn
+    cn = lam - np.minimum(0.0, q)
+    b = np.where(q < 0, mu * np.maximum(0.0, -lam), 0.0) if friction else np.zeros_like(q)
+    ct = T - np.clip(T + r * gt, -b, b)
+    return cn, ct

@@ -55,7 +55,21 @@ Newton (``-xfc_friction_newton COULOMB``, the default):
   settled: when a status iteration changes nothing and the thresholds it leaves are within
   :data:`REARM_CHANGE` of the pressures, Coulomb's law goes back into Newton (the threshold
   loop converges linearly, Newton near the solution quadratically); the next load step
-  starts with Coulomb's law in Newton again.
+  starts with Coulomb's law in Newton again;
+* 2-D, with the line search (``-xfc_friction_line_search MERIT``; not the default, see
+  :mod:`xfemcontact.solver.linesearch` for what it changes): Newton's statuses
+  are those of the augmented tests at the iterate with r = :data:`NEWTON_SCALE` E / h
+  (:func:`nodal.contact_status_augmented`, :func:`nodal.friction_status_augmented`: a function of
+  the iterate, so a slipping dof may reverse at once), the branches of the complementarity
+  functions of :func:`nodal.complementarity`; Newton's step is then a descent direction of their
+  squared norm, and :mod:`xfemcontact.solver.linesearch` damps it when that merit function asks
+  for it (a non-monotone backtracking line search).  Statuses met again or a chattering dof are
+  then no cycle and hand nothing over; a stalled merit function hands over to the threshold fixed
+  point as the guard does (:meth:`stall`).  Measured (Newton iterations over the whole run, the
+  cycle guard / the line search): arc under shear QUAD8 34 / 18 and Gmsh 25 / 23, SSNV509 mu = 0.2
+  QUAD8 23 / 14 and TRIA6 16 / 11, cases/validation/low_friction.toml 30 / 14, inclusion TRIA6 15
+  / 20; the inclusion QUAD8 stalls and the threshold loop takes it as before (474 / 462 Newton
+  iterations, 6 / 4 status loops forced).
 
 With ``-xfc_friction_newton TRESCA`` (the fixed point of earlier versions):
 
@@ -174,6 +188,20 @@ DIRECTION_SETTLED = 1e-10
 #: at every iteration with the residual at 3e-14 of the loads, and DIRECTION_SETTLED ended
 #: the run at ITER_GLOB_MAXI
 GUARDED_DIRECTION_SETTLED = 1e-6
+#: 2-D, Coulomb's law in Newton with the line search (``-xfc_friction_line_search MERIT``): the
+#: scale r (in units of E / h) of the augmented tests that give Newton's statuses
+#: and of the complementarity functions whose squared norm the line search decreases
+#: (:func:`xfemcontact.contact.nodal.complementarity`).  The same r in both, so that Newton's
+#: step descends the merit function; E / h weighs a slip like the traction it would build over a
+#: cell, so that the kinks of the merit function (|T + r gt| = mu |LAGS_C|: a status changes) are
+#: not packed within a small fraction of Newton's step.  Measured on the curved cases of the
+#: sliding campaign and cases/validation/low_friction.toml (Newton iterations, arc QUAD8 / arc
+#: Gmsh / inclusion TRIA6 / SSNV509 mu = 0.2 QUAD8 / TRIA6 / low_friction, solver/linesearch.py's
+#: MEMORY 5): 18 / 23 / 20 / 14 / 11 / 14 with 1; 25 / 24 / 63 / 16 / 9 / 15 with 0.1; 18 / 34 /
+#: 16 / 26 / 19 / 30 with 3.  With 1e4 (STATUS_SCALE; monotone line search) a kink lay within
+#: 1e-3 of the step from the first iterate on: arc QUAD8 stalled (100 iterations), the others
+#: took 46 / 69 / 12 / 15 / 32
+NEWTON_SCALE = 1.0
 
 #: the pressure scale of :meth:`NodalContactProblem.conditions` where every dof opens: this
 #: fraction of E / h times the largest jump (the pressures are then round-off of the stresses
@@ -229,6 +257,9 @@ class NodalContactProblem(InterfaceProblem):
         self._kappa = setup.case.material.E / scales.h     # Pa/m: weighs the rows of the dofs
         #: Coulomb's law in Newton (module documentation); False: the threshold fixed point
         self.coulomb_newton = options.get("friction_newton", "COULOMB") == "COULOMB"
+        #: 2-D, Coulomb's law in Newton: Newton's steps globalised by a line search on the
+        #: complementarity functions (:attr:`merit_active`); False: full steps and the guard
+        self.line_search = options.get("friction_line_search", "NONE") == "MERIT"
         self._given = (c.coef_cont, c.coef_frot)
         self._kappa_rows = None
         if self.coulomb_newton:
@@ -287,6 +318,68 @@ class NodalContactProblem(InterfaceProblem):
         start, not after the cycle guard)."""
         return self.coulomb_newton and not (self.guarded or self._guard_now or self.unbounded
                                             or self.free_start)
+
+    @property
+    def _globalised(self) -> bool:
+        """2-D with Coulomb's law in Newton and the line search: Newton's statuses are those of
+        the augmented tests at the iterate, its steps are damped on the merit function
+        (:meth:`merit_norm`), and a stalled merit function, not the statuses met again or a
+        chattering dof, is what hands over to the threshold fixed point (:meth:`stall`).  With a
+        line search statuses met again are no cycle (the iterates differ), while full steps
+        cycled: SSNV509 with mu = 0.3 (cases/validation/low_friction.toml) met the same 7
+        statuses over and over without the guard (period 7, residuals down to 1e-10 of the
+        loads in it); damped on the merit function it converged in 14 Newton iterations."""
+        return self.line_search and self.coulomb_newton and self.friction and self._nf == 1
+
+    @property
+    def merit_active(self) -> bool:
+        """Whether Newton's steps are damped on the merit function now (:attr:`_globalised`,
+        and Coulomb's law in Newton: not in the sticking start, not after the guard)."""
+        return self._globalised and self._in_newton
+
+    def add_merit_residual(self, x: PETSc.Vec, f: PETSc.Vec) -> None:
+        """Add to ``f`` the interface part of the merit function's equilibrium rows: every
+        dof's LAGS_C and T in the equilibrium (the complementarity rows are
+        :meth:`merit_norm`'s).  Keeps the complementarity values at the dofs for it."""
+        ve, h, lam, T = self._values(x)
+        gn = self._gap_and_tolerances(h, lam)[0]
+        gt = self._mean_slip(h if self._h0 is None else h - self._h0, lam.shape)
+        r = NEWTON_SCALE * self._kappa
+        cn, ct = nodal.complementarity(lam, T, gn, gt, self.mu, r, self.friction)
+        if self.bilateral:                       # GLISSIERE: always in contact
+            cn = -r * gn
+        self._merit_rows = (np.where(self.slot, cn, 0.0), np.where(self.fslot, ct, 0.0))
+        Rh = (np.einsum("km,kmd->kd", np.where(self.slot, lam, 0.0), self._Bn)
+              + np.einsum("km,kmd->kd", np.where(self.fslot, T, 0.0), self._Bt))
+        live = self.indices[:, :self._nh] >= 0
+        f.setValues(self.indices[:, :self._nh][live].astype(PETSc.IntType), Rh[live],
+                    addv=PETSc.InsertMode.ADD_VALUES)
+        f.assemblyBegin()
+        f.assemblyEnd()
+
+    def merit_norm(self, f: PETSc.Vec) -> float:
+        """The merit function's norm (N/m): the rows of the jump and displacement dofs of
+        ``f`` (:meth:`add_merit_residual`), and at each dof the complementarity functions
+        (Pa) times its lumped weight D_a (m), the force scale of the dof's rows in
+        :meth:`residual_norm` (all processes)."""
+        lo, hi = f.getOwnershipRange()
+        g = self.indices[:, self._nh:]
+        own = np.concatenate([self.slot, self.fslot], axis=1) & (g >= lo) & (g < hi)
+        rows = np.unique(g[own]) - lo
+        a = f.getArray(readonly=True)
+        cn, ct = self._merit_rows
+        once, fonce = self._once, self._tile(self._once)
+        total = (float(np.dot(a, a)) - float(np.dot(a[rows], a[rows]))
+                 + float(np.sum((self._D * cn)[once] ** 2))
+                 + float(np.sum((self._tile(self._D) * ct)[fonce] ** 2)))
+        return float(np.sqrt(max(self._mpi.allreduce(total), 0.0)))
+
+    def stall(self) -> None:
+        """The line search's merit function has stalled: the guard (module documentation),
+        the threshold fixed point for the rest of the load step."""
+        self.guarded = True
+        self.guards += 1
+        self._flips[:] = 0
 
     @property
     def _direction_in_newton(self) -> bool:
@@ -512,7 +605,10 @@ class NodalContactProblem(InterfaceProblem):
                     self._max(np.where(active & np.isfinite(bound), bound, 0.0)) / self._kappa)
         if self._h0 is not None:
             scale = max(scale, self._max(np.where(active, self._mean_slip(h, lam.shape), 0.0)))
-        if self._nf == 1:
+        if self._nf == 1 and self.merit_active:
+            status = nodal.friction_status_augmented(self.slip, active, T, gt, bound, NEWTON_SCALE * self._kappa,
+                                                     nodal.ROUNDOFF * scale)
+        elif self._nf == 1:
             status = nodal.friction_status(self.slip, active, T, gt, bound, STATUS_SCALE * self._kappa,
                                            nodal.ROUNDOFF * scale)
         else:
@@ -558,7 +654,7 @@ class NodalContactProblem(InterfaceProblem):
             self.chi = self._contact_at(x)
         try:
             slip, h, lam, T, gt, active, bound = self._friction_statuses(x)
-            if self._in_newton and self._cycled(committed, slip):
+            if self._in_newton and not self._globalised and self._cycled(committed, slip):
                 self.chi = committed
                 if commit:
                     self.guarded = True
@@ -622,7 +718,8 @@ class NodalContactProblem(InterfaceProblem):
             self._seen_slip.add(self._fingerprint(self.slip))
             self._flips += self._changed(slip, self.slip)
             self.slip = slip
-            if in_newton and self._mpi.allreduce(bool((self._flips >= CHATTER_FLIPS).any()), op=MPI.LOR):
+            if in_newton and not self._globalised and \
+                    self._mpi.allreduce(bool((self._flips >= CHATTER_FLIPS).any()), op=MPI.LOR):
                 self.guarded = True           # a dof chatters: the guard (module documentation)
                 self.guards += 1
                 self._flips[:] = 0
@@ -868,7 +965,11 @@ class NodalContactProblem(InterfaceProblem):
         (Coulomb's law in Newton: a semi-smooth Newton on contact too)."""
         ve, h, lam, T = self._values(x)
         gn, tol_lam, tol_gap = self._gap_and_tolerances(h, lam)
-        new = np.where(self.slot, nodal.contact_status(self.chi, lam, gn, tol_lam, tol_gap), 0)
+        if self.merit_active:                    # the augmented test (NEWTON_SCALE)
+            rule = nodal.contact_status_augmented(self.chi, lam, gn, NEWTON_SCALE * self._kappa, tol_lam, tol_gap)
+        else:
+            rule = nodal.contact_status(self.chi, lam, gn, tol_lam, tol_gap)
+        new = np.where(self.slot, rule, 0)
         return np.maximum(new, self.chi) if self.bilateral else new      # GLISSIERE: kept
 
     def _equilibrium_tractions(self, lam: FloatArray, T: FloatArray) -> tuple[FloatArray, FloatArray]:

@@ -211,6 +211,27 @@ class InterfaceProblem:
         """``f += scale K x`` for the element tangents ``K (k, nd, nd)``."""
         self._op.add_product(K, x, f, scale)
 
+    # -- Newton's line search on a merit function: the problems with ``line_search`` ----
+    line_search: bool = False
+
+    @property
+    def merit_active(self) -> bool:
+        """Whether Newton's steps are damped on the merit function now
+        (:mod:`xfemcontact.solver.linesearch`)."""
+        return False
+
+    def add_merit_residual(self, x: PETSc.Vec, f: PETSc.Vec) -> None:
+        """Add the interface part of the merit function's equilibrium rows to ``f``."""
+        raise NotImplementedError
+
+    def merit_norm(self, f: PETSc.Vec) -> float:
+        """The merit function's norm from the rows of ``f`` (:meth:`add_merit_residual`)."""
+        raise NotImplementedError
+
+    def stall(self) -> None:
+        """The merit function has stalled (Newton with the line search makes no progress)."""
+        return None
+
     # -- outer loops: the problems whose ``loops`` name them ---------------------------
     def update_status(self, x: PETSc.Vec) -> int:
         raise NotImplementedError

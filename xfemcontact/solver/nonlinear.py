@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 from xfemcontact._petsc import PETSc
 from xfemcontact.solver.coupled import CoupledJacobian
+from xfemcontact.solver.linesearch import MeritLineSearch
 from xfemcontact.solver.loops import LoopRecord, create_loops, solve_newton
 from xfemcontact.solver.newton import LoadRelativeTest, create_snes, user_value
 
@@ -36,6 +37,8 @@ class SolvedModel(Protocol):
     load_norm: float
 
     def residual(self, snes: PETSc.SNES, x: PETSc.Vec, f: PETSc.Vec) -> None: ...
+
+    def merit(self, x: PETSc.Vec, f: PETSc.Vec) -> float: ...
 
     def jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None: ...
 
@@ -89,6 +92,13 @@ class NonlinearSolver:
         self.outer = self.contact = None
         if problem is not None and self.record is not None:
             self.outer, self.contact = create_loops(self, problem, model.case.contact)
+        # Newton's steps damped on the problem's merit function (solver/linesearch.py), unless
+        # the user chose a line search
+        self.line_search: MeritLineSearch | None = None
+        if problem is not None and problem.line_search and user_value("snes_linesearch_type") is None:
+            work = f.duplicate()
+            self.line_search = MeritLineSearch(self.newton, lambda x: model.merit(x, work), problem)
+            self.newton.setLineSearchPreCheck(self.line_search)
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
         self.jacobians += 1
@@ -155,4 +165,6 @@ class NonlinearSolver:
                 "line_search_retries": int(loops.line_search_retries),
                 "frozen_status_solves": int(loops.frozen_solves),
                 "status_changes": list(loops.status_changes),
+                "damped_steps": self.line_search.damped if self.line_search else 0,
+                "merit_evaluations": self.line_search.evaluations if self.line_search else 0,
                 "threshold_changes": [float(c) for c in loops.threshold_changes]}
