@@ -172,6 +172,14 @@ def test_both_newtons_give_the_same_answer(tmp_path, run_once):
     assert r2["linear_solver"]["coupled_jacobians"] == 0
 
 
+def test_line_search_where_it_does_not_apply(tmp_path):
+    """-xfc_friction_line_search MERIT on a 3-D case (it is written for 2-D): the run says it
+    is ignored, and solves as without it."""
+    r = run_ok([SLIP_3D, "-q", "-xfc_friction_line_search", "MERIT"], tmp_path / "m")
+    assert any("MERIT" in w and "ignored here (3-D)" in w for w in r["warnings"]), r["warnings"]
+    assert r["iterations"]["damped_steps"] == 0
+
+
 def test_conditions_at_the_dofs(tmp_path, run_once):
     """results.json ``conditions``: every condition of the law holds at the dofs of the
     converged slip to round-off; a threshold loop stopped at 1e-2 (-friction_snes_rtol)

@@ -260,6 +260,11 @@ class NodalContactProblem(InterfaceProblem):
         #: 2-D, Coulomb's law in Newton: Newton's steps globalised by a line search on the
         #: complementarity functions (:attr:`merit_active`); False: full steps and the guard
         self.line_search = options.get("friction_line_search", "NONE") == "MERIT"
+        if self.line_search and not (self.coulomb_newton and self.friction and self._nf == 1):
+            self.warnings.append(
+                "-xfc_friction_line_search MERIT applies to Coulomb friction in 2-D with Coulomb's law "
+                "in Newton only: ignored here (" + ("3-D" if self._nf > 1 else "no friction" if not self.friction
+                                                     else "-xfc_friction_newton TRESCA") + ")")
         self._given = (c.coef_cont, c.coef_frot)
         self._kappa_rows = None
         if self.coulomb_newton:
