@@ -113,3 +113,15 @@ def with_contact_keys(path, directory, **keys):
 def gauss(path, directory):
     """The case ``path`` with code_aster's Gauss-point contact (``integration = "GAUSS"``)."""
     return with_contact_keys(path, directory, integration='"GAUSS"')
+
+
+@pytest.fixture
+def null_pivot_detection():
+    """MUMPS null-pivot detection (-mat_mumps_icntl_24 1) in the options database, for the
+    models a test builds in its own process."""
+    from xfemcontact._petsc import PETSc
+
+    opts = PETSc.Options()
+    opts.setValue("mat_mumps_icntl_24", "1")
+    yield
+    opts.delValue("mat_mumps_icntl_24")

@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 from conftest import ROOT, write_case
-from xfemcontact._petsc import PETSc
 from xfemcontact.case import load_case
 from xfemcontact.model import Model
 
@@ -34,13 +33,6 @@ def cap_area(radius, top=0.34, n=1000):
     r2 = (s[:, None] - 0.5) ** 2 + (s[None, :] - 0.5) ** 2
     return float(np.mean(radius / np.sqrt(radius ** 2 - r2)))
 
-
-@pytest.fixture
-def null_pivot_detection():
-    opts = PETSc.Options()
-    opts.setValue("mat_mumps_icntl_24", "1")
-    yield
-    opts.delValue("mat_mumps_icntl_24")
 
 
 @pytest.mark.parametrize("cell, radius, tol", [("HEXA20", 2.0, 2e-3), ("HEXA20", 20.0, 1e-4),

@@ -19,7 +19,6 @@ import numpy as np
 import pytest
 
 from conftest import ROOT, results, write_case
-from xfemcontact._petsc import PETSc
 from xfemcontact.case import load_case
 from xfemcontact.model import Model
 from xfemcontact.output import interface_csv
@@ -46,13 +45,6 @@ SYMMETRY = """
     DZ = 0
     """
 
-
-@pytest.fixture
-def null_pivot_detection():
-    opts = PETSc.Options()
-    opts.setValue("mat_mumps_icntl_24", "1")
-    yield
-    opts.delValue("mat_mumps_icntl_24")
 
 
 def box(cell, level_set, loads, contact='frottement = "SANS"', E=2.0e5, nu=0.3, n=3):

@@ -16,7 +16,6 @@ import numpy as np
 import pytest
 
 from conftest import CASES, MESHES
-from xfemcontact._petsc import PETSc
 from xfemcontact.case import load_case
 from xfemcontact.case.formula import compile_formula
 from xfemcontact.mesh.generate import rectangle
@@ -25,13 +24,6 @@ from xfemcontact.model import Model
 
 N_POSITIONS = 50
 
-
-@pytest.fixture
-def null_pivot_detection():
-    opts = PETSc.Options()
-    opts.setValue("mat_mumps_icntl_24", "1")
-    yield
-    opts.delValue("mat_mumps_icntl_24")
 
 
 def shifted(case, yc):
