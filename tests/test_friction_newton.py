@@ -89,10 +89,83 @@ def test_coupling_is_the_derivative_of_the_residual():
     fd = central_difference(model, x, d, 1e-7 * x.norm() / d.norm())
     jd = Jd.getArray()
     assert np.abs(fd - jd).max() <= 1e-6 * np.abs(jd).max()
-    # without the coupling the difference is of the order of the coupling itself
+    # without the coupling the rows of the slipping dofs (D (T - f) / rho_T: the equilibrium
+    # holds T itself) miss the derivative of their bound, of the order of the coupling itself
     Kd = x.duplicate()
     model.K.mult(d, Kd)
-    assert np.abs(fd - Kd.getArray()).max() > 1e-3 * np.abs(jd).max()
+    rows = np.unique(problem.indices[:, nh + m:][problem.fslot])
+    rows = rows[(rows >= lo) & (rows < hi)] - lo
+    assert np.abs(fd - Kd.getArray())[rows].max() > 0.5 * np.abs(jd[rows]).max()
+
+
+def test_augmented_coupling_is_the_derivative_of_the_residual():
+    """2-D with the line search (the default): a slipping dof's bound is -mu (LAGS_C + r gn),
+    Alart and Curnier's augmented pressure, so its traction depends on the jump dofs too, and
+    the equilibrium holds the dof's own T.  At the sliding state the Jacobian (symmetric part
+    plus coupling) is the derivative of the residual in a random direction of every interface
+    dof (jumps, LAGS_C, LAGS_F1): central differences agree to 1e-6 relative, and the coupling
+    stays in the interface elements' blocks."""
+    from xfemcontact.case import load_case
+    from xfemcontact.model import Model
+
+    model = Model.from_case(load_case(SLIP))
+    assert model.solve() > 0
+    problem = model.problem
+    assert problem.merit_active and problem.guards == 0
+    x = model.x
+    nh, m = problem._nh, problem._m
+    g = problem.indices
+    lo, hi = x.getOwnershipRange()
+    values = x.getArray(readonly=True)
+    rng = np.random.default_rng(7)
+    d = x.duplicate()
+    d.set(0.0)
+    for block in (g[:, :nh], g[:, nh:nh + m][problem.slot], g[:, nh + m:][problem.fslot]):
+        dofs = np.unique(block[block >= 0])
+        dofs = dofs[(dofs >= lo) & (dofs < hi)]
+        d.setValues(dofs, rng.standard_normal(len(dofs)) * np.abs(values[dofs - lo]).max())
+    d.assemble()
+    f0 = x.duplicate()
+    model.residual(None, x, f0)
+    model.jacobian(None, x, model.K, model.K)
+    C = problem.coupling()
+    assert C is not None
+    live = g >= 0
+    assert not np.any(C[~(live[:, :, None] & live[:, None, :])])
+    assert np.abs(C[:, nh + m:, :nh]).max() > 0              # the bound's dependence on the gaps
+    Jd = x.duplicate()
+    model.K.mult(d, Jd)
+    problem.add_product(C, d, Jd)
+    fd = central_difference(model, x, d, 1e-6)
+    jd = Jd.getArray()
+    assert np.abs(fd - jd).max() <= 1e-6 * np.abs(jd).max()
+    Kd = x.duplicate()
+    model.K.mult(d, Kd)
+    rows = np.unique(g[:, nh + m:][problem.fslot])
+    rows = rows[(rows >= lo) & (rows < hi)] - lo
+    assert np.abs(fd - Kd.getArray())[rows].max() > 0.5 * np.abs(jd[rows]).max()
+
+
+def test_augmented_bound_and_kink():
+    """The complementarity functions bound friction by the augmented pressure: a dof that
+    closes with lam = 0 (gn < 0) already has friction; at a solution (gn = 0 where in contact)
+    the bound is -mu lam and both functions vanish.  A slipping dof that has not slipped in the
+    step (gt = 0, |T| = b: the start of a load step) takes the stick branch, one that has keeps
+    its slip, and a trial traction beyond the bound the other way reverses it."""
+    from xfemcontact.contact import nodal
+
+    mu, r = 0.5, 1e6
+    lam, gn = np.array([0.0, -100.0, 0.0]), np.array([-1e-6, 0.0, 1e-6])
+    cn, ct = nodal.complementarity(lam, np.zeros(3), gn, np.array([1e-5, 0.0, 0.0]), mu, r)
+    assert cn == pytest.approx([1.0, 0.0, 0.0])                # r |gn| = 1 Pa of interpenetration
+    assert ct == pytest.approx([-0.5, 0.0, 0.0])               # the bound mu r |gn| = 0.5 Pa
+    cn, ct = nodal.complementarity(np.array([-100.0]), np.array([50.0]), np.array([0.0]),
+                                   np.array([2e-6]), mu, r)
+    assert cn[0] == 0.0 and ct[0] == 0.0                       # slipping at the bound mu |lam|
+    slip, active, b = np.ones(3), np.ones(3, bool), np.full(3, 50.0)
+    T, gt = np.array([50.0, 50.0, 50.0]), np.array([0.0, 1e-6, -2e-4])
+    new = nodal.friction_status_augmented(slip, active, T, gt, b, r, tol_slip=1e-12)
+    assert list(new) == [0.0, 1.0, -1.0]
 
 
 @pytest.fixture
@@ -222,45 +295,65 @@ def test_bad_friction_newton_option(tmp_path):
     assert "-xfc_friction_newton FAST: unknown value (expected one of COULOMB, TRESCA)" in p.stderr
 
 
-@pytest.mark.parametrize("line_search, newton", [("NONE", 21), ("MERIT", 25)])
-def test_cycle_guard(tmp_path, line_search, newton):
+@pytest.mark.parametrize("line_search, newton, guards", [("NONE", 21, 1), ("MERIT", 7, 0)])
+def test_cycle_guard(tmp_path, line_search, newton, guards):
     """At the Coulomb limit on unstructured quadrangles (dofs with tiny lumped weights
-    at the ends of the interface) the active sets of the semi-smooth Newton cycle (NONE: full
-    steps) or find no status consistent with the others' for a dof (MERIT: the merit function
-    stalls): the guard hands the step to the threshold loop, Coulomb's law goes back into Newton
-    once that loop has settled (nodal_problem.REARM_CHANGE), and the run ends exact."""
+    at the ends of the interface) the active sets of the semi-smooth Newton with full steps
+    and the bound mu |LAGS_C| cycle (NONE): the guard hands the step to the threshold loop,
+    Coulomb's law goes back into Newton once that loop has settled
+    (nodal_problem.REARM_CHANGE), and the run ends exact.  With the line search and the
+    augmented bound (MERIT, the default) the end dof that closes with a pressure of zero
+    finds its status at once: no guard."""
     c = {r.name: r for r in campaign.TABLE}["limit-D_q8u3x2_a+20_gen_nu0"]
     path = tmp_path / "case.toml"
     path.write_text(campaign.case_text(c, meshes=str(MESHES)))
     r = run_ok([path, "-xfc_friction_line_search", line_search], tmp_path / "o")
     assert all(t["ok"] for t in r["tests"]), r["tests"]
-    assert r["multipliers"]["cycle_guards"] >= 1
-    assert r["multipliers"]["coulomb_rearms"] >= 1
+    assert (r["multipliers"]["cycle_guards"] >= 1) == (guards >= 1)
+    assert (r["multipliers"]["coulomb_rearms"] >= 1) == (guards >= 1)
     # measured: 25 before Coulomb's law went back into Newton after the guard, 21 with it;
-    # with the line search 25 (linesearch.STALL: 8 iterations without progress before the guard)
+    # with the line search 25 with the bound mu |LAGS_C| (the merit function stalled: the guard),
+    # 7 with the augmented bound
     assert r["iterations"]["newton"] <= newton
 
 
-@pytest.mark.parametrize("case, line_search, newton", [
+@pytest.mark.parametrize("case, line_search, newton, damped", [
     # issue 18: the chatter of a narrow stick zone between slip zones of opposite directions
-    # (34 Newton iterations with full steps and the guard, 17 of them before it)
-    ("campaign/curved_arc_shear_quad8.toml", "MERIT", 18),
-    ("campaign/curved_arc_shear_quad8.toml", "NONE", 34),
+    # (34 Newton iterations with full steps and the guard, 17 of them before it; 18 with the
+    # line search and the bound mu |LAGS_C|, 15 with the augmented bound)
+    ("campaign/curved_arc_shear_quad8.toml", "MERIT", 15, 1),
+    ("campaign/curved_arc_shear_quad8.toml", "NONE", 34, 0),
     # SSNV509 with mu = 0.3: a period-7 cycle of full steps (30 with the guard)
-    ("validation/low_friction.toml", "MERIT", 14),
+    ("validation/low_friction.toml", "MERIT", 14, 1),
+    # an interface that closes again under shear: with the bound mu |LAGS_C| its dofs closed
+    # with LAGS_C = 0, took no friction, slid a whole step and reversed (40 Newton iterations
+    # over the history, 25 with full steps and the guard); the augmented bound gives them the
+    # friction of their interpenetration at once
+    ("validation/history_open_reclose.toml", "MERIT", 15, 0),
+    ("validation/history_open_reclose.toml", "NONE", 25, 0),
 ])
-def test_line_search(tmp_path, case, line_search, newton):
+def test_line_search(tmp_path, case, line_search, newton, damped):
     """Newton's steps damped on the merit function of the complementarity functions
-    (solver/linesearch.py): the semi-smooth Newton converges with Coulomb's law in it, no
-    guard, no forced status loop; ``-xfc_friction_line_search NONE`` (the default) is the
-    full-step Newton with the cycle guard."""
+    (solver/linesearch.py), the friction bound Alart and Curnier's augmented pressure: the
+    semi-smooth Newton converges with Coulomb's law in it, no guard, no forced status loop;
+    ``-xfc_friction_line_search NONE`` is the full-step Newton with the bound mu |LAGS_C| and
+    the cycle guard."""
     r = run_ok([CASES / case, "-xfc_friction_line_search", line_search], tmp_path / "o")
     assert all(t["ok"] for t in r["tests"]), r["tests"]
     assert r["iterations"]["newton"] <= newton
     assert not any("forced" in w for w in r["warnings"])
     if line_search == "MERIT":
         assert r["multipliers"]["cycle_guards"] == 0
-        assert r["iterations"]["damped_steps"] >= 1
+        assert r["iterations"]["damped_steps"] >= damped
+
+
+def test_default_is_the_line_search(run_once):
+    """Without -xfc_friction_line_search a 2-D Coulomb case runs with the line search (the
+    arc under shear: 15 Newton iterations, no guard), and says nothing about it."""
+    r, _ = shared_ok(run_once, CASES / "campaign" / "curved_arc_shear_quad8.toml")
+    assert r["iterations"]["newton"] <= 15 and r["multipliers"]["cycle_guards"] == 0
+    assert r["iterations"]["merit_evaluations"] > 0
+    assert not any("friction_line_search" in w for w in r["warnings"])
 
 
 def test_merit_descent(tmp_path):
@@ -353,3 +446,36 @@ def test_sphere_partial_slip_after_the_guard(tmp_path, cell, mu):
     assert v["LAGS_C"].max() <= 1e-9 * p
     assert np.hypot(v["LAGS_F1"], v["LAGS_F2"]).max() <= 1.0 + 1e-9
 
+
+
+def test_line_search_breaks_a_cycle():
+    """A merit value met again in a solve is a cycle: the step from it must decrease the merit
+    function itself, where the non-monotone reference (the largest of the last values) would
+    let a period-2 cycle of full steps go on (linesearch.REPEAT)."""
+    from xfemcontact.solver import linesearch
+
+    class Snes:
+        k = 0
+
+        def getIterationNumber(self):
+            return self.k
+
+    class Problem:
+        merit_active = True
+
+        def stall(self):
+            raise AssertionError("no stall expected")
+
+    snes = Snes()
+    ls = linesearch.MeritLineSearch(snes, lambda v: float(v.getArray()[0]) ** 2, Problem())
+    x, y = PETSc.Vec().createSeq(1), PETSc.Vec().createSeq(1)
+    # the merit values 100, then 10 and 20 in turn: a period-2 cycle of full steps
+    path = [10.0, 10.0 ** 0.5, 20.0 ** 0.5, 10.0 ** 0.5]
+    damped = []
+    for k, (a, b) in enumerate(zip(path, path[1:] + [20.0 ** 0.5])):
+        snes.k = k
+        x.set(a)
+        y.set(a - b)                  # PETSc's step: the new iterate is x - y
+        damped.append(ls(x, y))
+    assert damped == [False, False, False, True]     # 10 met again: 20 is no decrease from it
+    assert abs(y.getArray()[0]) < abs(path[3] - 20.0 ** 0.5)

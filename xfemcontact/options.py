@@ -108,10 +108,11 @@ OPTIONS = {o.name: o for o in (
            choices=("COULOMB", "TRESCA"), default_doc="COULOMB"),
     Option("friction_line_search", "choice",
            "2-D, integration = NOEUD with Coulomb's law in Newton: MERIT (Newton's statuses from "
-           "the augmented tests at the iterate, its steps damped by a non-monotone backtracking "
-           "line search on the squared norm of the complementarity functions: fewer Newton "
-           "iterations on the curved campaign cases) or NONE (full steps and the cycle guard)",
-           choices=("MERIT", "NONE"), default_doc="NONE"),
+           "Alart and Curnier's augmented tests at the iterate, the friction bound from the "
+           "augmented pressure, its steps damped by a non-monotone backtracking line search on "
+           "the squared norm of the complementarity functions) or NONE (full steps, the bound "
+           "mu |LAGS_C|, and the cycle guard: the method of earlier versions)",
+           choices=("MERIT", "NONE"), default_doc="MERIT"),
     Option("mesh_max_mb", "float",
            "largest amount of data (MB) a mesh file may declare (node coordinates, cells, "
            "fields, after decompression); larger files are refused before they are read",

@@ -229,28 +229,37 @@ def friction_status_augmented(slip: FloatArray, active: BoolArray, T: FloatArray
     :func:`complementarity`'s projection): slip in the direction of the trial traction
     T + r gt where its magnitude exceeds the bound, stick where it does not -- a direct
     reversal included, so that the status is a function of the iterate.  Within the
-    round-off band of :func:`friction_status` a dof keeps a slip along the trial traction."""
+    round-off band of :func:`friction_status` a dof keeps a slip along the trial traction if
+    it has slipped in the step (``|gt|`` above ``tol_slip``); one that has not sits on the kink
+    of the projection, where both branches are Newton's, and sticks: at the start of a load
+    step every slipping dof is there (gt = 0, |T| = b), and the stick branch is the elastic
+    predictor, which an unloading step needs (cases/validation/history_shear_cycle.toml: the
+    slip branch there reversed the slip at every iteration, 17 Newton iterations in the step
+    after a forward slip, 50 over the cycle; 22 over the cycle with the stick branch)."""
     trial = T + r * gt
     finite = np.isfinite(bound)
     b = np.where(finite, bound, 0.0)
     band = b * ROUNDOFF + r * tol_slip
     new = np.where(finite & (np.abs(trial) > b + band), np.sign(trial), 0.0)
-    keep = finite & (np.abs(trial) >= b - band) & (slip * trial > 0)
+    keep = finite & (np.abs(trial) >= b - band) & (slip * trial > 0) & (np.abs(gt) > tol_slip)
     return np.where(active, np.where(keep, slip, new), 0.0)
 
 
 def complementarity(lam: FloatArray, T: FloatArray, gn: FloatArray, gt: FloatArray, mu: float,
                     r: float, friction: bool = True) -> tuple[FloatArray, FloatArray]:
     """The conditions as functions of the iterate alone (Pa; Alart and Curnier's
-    complementarity functions with the bound of Newton): ``C_n = lam - min(0, lam + r gn)``
-    and ``C_t = T - proj_[-b, b](T + r gt)``, ``b = mu max(0, -lam)`` where lam + r gn < 0 and
-    0 elsewhere (0 without ``friction``: C_t = T).  Both vanish exactly at the solutions of
-    the conditions, whatever r > 0; Newton's statuses with the same r
+    complementarity functions): ``C_n = lam - min(0, lam + r gn)`` and ``C_t = T -
+    proj_[-b, b](T + r gt)`` with the augmented bound ``b = mu max(0, -(lam + r gn))`` (0
+    without ``friction``: C_t = T).  Both vanish exactly at the solutions of the conditions,
+    whatever r > 0 (where C_n = 0, either lam = 0 <= r gn and b = 0, or gn = 0 and b = -mu lam);
+    the augmented bound, not mu |lam|, gives a dof that closes with lam = 0 (an interpenetration,
+    a pressure still to come) the friction its penetration announces, so that Newton does not
+    take it as frictionless for a step.  Newton's statuses with the same r
     (:func:`contact_status_augmented`, :func:`friction_status_augmented`) are the branches of
     the min and of the projection, so that Newton's step is the (generalised) Newton step of
     these functions and descends their squared norm."""
     q = lam + r * gn
     cn = lam - np.minimum(0.0, q)
-    b = np.where(q < 0, mu * np.maximum(0.0, -lam), 0.0) if friction else np.zeros_like(q)
+    b = mu * np.maximum(0.0, -q) if friction else np.zeros_like(q)
     ct = T - np.clip(T + r * gt, -b, b)
     return cn, ct

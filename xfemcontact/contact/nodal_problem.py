@@ -56,20 +56,29 @@ Newton (``-xfc_friction_newton COULOMB``, the default):
   :data:`REARM_CHANGE` of the pressures, Coulomb's law goes back into Newton (the threshold
   loop converges linearly, Newton near the solution quadratically); the next load step
   starts with Coulomb's law in Newton again;
-* 2-D, with the line search (``-xfc_friction_line_search MERIT``; not the default, see
-  :mod:`xfemcontact.solver.linesearch` for what it changes): Newton's statuses
-  are those of the augmented tests at the iterate with r = :data:`NEWTON_SCALE` E / h
+* 2-D, with the line search (``-xfc_friction_line_search MERIT``, the default; see
+  :mod:`xfemcontact.solver.linesearch`): Newton's statuses are those of Alart and Curnier's
+  augmented tests at the iterate with r = :data:`NEWTON_SCALE` E / h
   (:func:`nodal.contact_status_augmented`, :func:`nodal.friction_status_augmented`: a function of
   the iterate, so a slipping dof may reverse at once), the branches of the complementarity
-  functions of :func:`nodal.complementarity`; Newton's step is then a descent direction of their
-  squared norm, and :mod:`xfemcontact.solver.linesearch` damps it when that merit function asks
-  for it (a non-monotone backtracking line search).  Statuses met again or a chattering dof are
-  then no cycle and hand nothing over; a stalled merit function hands over to the threshold fixed
-  point as the guard does (:meth:`stall`).  Measured (Newton iterations over the whole run, the
-  cycle guard / the line search): arc under shear QUAD8 34 / 18 and Gmsh 25 / 23, SSNV509 mu = 0.2
-  QUAD8 23 / 14 and TRIA6 16 / 11, cases/validation/low_friction.toml 30 / 14, inclusion TRIA6 15
-  / 20; the inclusion QUAD8 stalls and the threshold loop takes it as before (474 / 462 Newton
-  iterations, 6 / 4 status loops forced).
+  functions of :func:`nodal.complementarity`, and the friction bound is their augmented one,
+  -mu min(0, LAGS_C + r gn) (:meth:`_augmented_pressure`; the same at a solution, where a dof in
+  contact has gn = 0): a dof that closes has LAGS_C = 0 at the iterate, and the bound mu |LAGS_C|
+  left it frictionless for a step.  The equilibrium then holds a slipping dof's own T, its row
+  D (T - f) / rho_T (:meth:`_augmented_coupling`), so that the bound's derivative with respect
+  to the gap stays in the elements' blocks.  Newton's step is a descent direction of the
+  squared norm of those functions, and :mod:`xfemcontact.solver.linesearch` damps it when that
+  merit function asks for it (a non-monotone backtracking line search).  Statuses met again
+  or a chattering dof are then no cycle and hand nothing over; a stalled merit function hands
+  over to the threshold fixed point as the guard does (:meth:`stall`).  Measured (Newton
+  iterations over the whole run: full steps with the guard and the bound mu |LAGS_C| (NONE) /
+  the line search with that bound / with the augmented bound): arc under shear QUAD8 34 / 18 /
+  15 and Gmsh 25 / 23 / 15, SSNV509 mu = 0.2 QUAD8 23 / 14 / 13 and TRIA6 16 / 11 / 9,
+  cases/validation/low_friction.toml 30 / 14 / 14, inclusion TRIA6 15 / 20 / 10, straight
+  interfaces at the Coulomb limit on unstructured quadrangles (bench/campaign.py
+  limit-D_q8u3x2_a+20, limit-D_q8u_a-30) 21 / 25 / 7 and 12 / 6 / 5,
+  cases/validation/history_open_reclose.toml 25 / 40 / 15; the inclusion QUAD8 stalls and the
+  threshold loop takes it (474 / 462 / 278 Newton iterations, status loops forced).
 
 With ``-xfc_friction_newton TRESCA`` (the fixed point of earlier versions):
 
@@ -259,8 +268,9 @@ class NodalContactProblem(InterfaceProblem):
         self.coulomb_newton = options.get("friction_newton", "COULOMB") == "COULOMB"
         #: 2-D, Coulomb's law in Newton: Newton's steps globalised by a line search on the
         #: complementarity functions (:attr:`merit_active`); False: full steps and the guard
-        self.line_search = options.get("friction_line_search", "NONE") == "MERIT"
-        if self.line_search and not (self.coulomb_newton and self.friction and self._nf == 1):
+        wanted = options.get("friction_line_search", "MERIT") == "MERIT"
+        self.line_search = wanted and self.coulomb_newton and self.friction and self._nf == 1
+        if wanted and not self.line_search and "friction_line_search" in options.given():
             self.warnings.append(
                 "-xfc_friction_line_search MERIT applies to Coulomb friction in 2-D with Coulomb's law "
                 "in Newton only: ignored here (" + ("3-D" if self._nf > 1 else "no friction" if not self.friction
@@ -294,6 +304,9 @@ class NodalContactProblem(InterfaceProblem):
         self.unbounded = self.friction and s0 == 0.0         # first thresholds from a sticking solve
         self.free_start = False
         self.s = np.where(self.slot, s0, 0.0)
+        #: with the line search, the thresholds of Newton's bound at the iterate: the augmented
+        #: pressures (:meth:`_augmented_pressure`); ``s`` stays LAGS_C's, for the loops and results
+        self._newton_s: FloatArray | None = None
         self._set_rho_T(abs(s0) if s0 else None)
         self._functions()
         g = self.indices[:, self._nh:self._nh + self._m]
@@ -588,7 +601,8 @@ class NodalContactProblem(InterfaceProblem):
         on = (self.chi == 1) & self.slot & self.friction
         if self.unbounded:
             return on, np.full(self.s.shape, np.inf)
-        bound = self.mu * np.abs(self.s)
+        s = self._newton_s if (self._newton_s is not None and self.merit_active) else self.s
+        bound = self.mu * np.abs(s)
         return on & (bound > 0), bound
 
     def _friction_statuses(self, x):
@@ -600,6 +614,8 @@ class NodalContactProblem(InterfaceProblem):
             # Coulomb in Newton: the bound is mu |LAGS_C| of this iterate (and s follows
             # LAGS_C, so that the threshold loop and the results see the bound used)
             self.s = np.where(self.slot, self._threshold(lam), 0.0)
+            self._newton_s = (np.where(self.slot, self._threshold(self._augmented_pressure(h, lam)), 0.0)
+                              if self.merit_active else None)
         active, bound = self._fbounds()
         gt = self._mean_slip(h if self._h0 is None else h - self._h0, lam.shape)
         # the round-off of the slips: on the scale of the slip (of the step, and after
@@ -633,6 +649,21 @@ class NodalContactProblem(InterfaceProblem):
         if not self._direction_in_newton and not self._in_newton:   # (else the cycle guard of _terms)
             status = self._no_cycle(self.slip, status, self._seen_slip)
         return status, h, lam, T, gt, active, bound
+
+    def _augmented_pressure(self, h, lam):
+        """The pressures whose negative part bounds friction with Coulomb's law in Newton, at
+        the dofs ``(k, m)`` (Pa): LAGS_C, and with the line search (:attr:`merit_active`)
+        Alart and Curnier's augmented lam + r gn (r = NEWTON_SCALE E / h, the bound of
+        :func:`nodal.complementarity`; at a solution the same where the dof is in contact).
+        Measured (Newton iterations over the run with mu |LAGS_C| / with the augmented bound):
+        arc under shear QUAD8 18 / 15, on Gmsh quadrangles 23 / 15, inclusion TRIA6 20 / 10 and
+        QUAD8 462 / 93 (4 status loops forced / none), SSNV509 mu = 0.2 QUAD8 14 / 13, Gmsh TRIA6
+        11 / 9, cases/validation/history_open_reclose.toml 40 / 15: a dof that closes has lam =
+        0 at the iterate, hence no friction with mu |LAGS_C|, and slid a whole step before
+        its pressure came, then reversed."""
+        if not self.merit_active:
+            return lam
+        return lam + NEWTON_SCALE * self._kappa * self._gap_and_tolerances(h, lam)[0]
 
     def _mean_slip(self, h, shape):
         """Mean slips ``gt (k, m)`` (m) at the dofs of the jump dofs ``h``."""
@@ -733,7 +764,7 @@ class NodalContactProblem(InterfaceProblem):
         if (self._in_newton or self._direction_in_newton) and self.friction:
             slipping = active & self._sliding(slip) & (bound > 0)
         # 3-D in Newton: the equilibrium holds a slipping dof's own T (_direction_coupling)
-        carried = slipping if self._direction_in_newton else None
+        carried = slipping if (self._direction_in_newton or self.merit_active) else None
         t = nodal.terms(chi, slip, active, lam, T, bound, self._Dk, self.rho_n, rho_T, self._DkT,
                         None if self._nf == 1 else self._sliding(slip), carried)
         return h, t, slipping, T + DIRECTION_SCALE * self._kappa * gt, bound
@@ -762,7 +793,12 @@ class NodalContactProblem(InterfaceProblem):
         nh, m = self._nh, self._m
         K = np.zeros((k, nd, nd))
         Kn = self._Bn * t["wn"][:, :, None]                      # (k, m, 2nn)
-        Kt = Bt * t["wt"][:, :, None]
+        # 2-D with the line search, the equilibrium holds a slipping dof's own T: its column
+        # Bt^T, and the transpose in its row, go into the symmetric part (its row's own
+        # derivative is -Bt plus the bound's: :meth:`_augmented_coupling`), so that the
+        # symmetric part stays a good preconditioner of the whole (a user's Krylov method)
+        held = t["wt"] + (slipping if (self.merit_active and slipping is not None) else 0.0)
+        Kt = Bt * held[:, :, None]
         K[:, nh:nh + m, :nh] = Kn
         K[:, :nh, nh:nh + m] = Kn.transpose(0, 2, 1)
         K[:, nh + m:, :nh] = Kt
@@ -772,6 +808,7 @@ class NodalContactProblem(InterfaceProblem):
         j = np.arange(self._nf * m)
         K[:, nh + m + j, nh + m + j] = t["kT"]
         self._coupling = (self._direction_coupling(slipping, trial, bound) if self._direction_in_newton
+                          else self._augmented_coupling(slipping) if self.merit_active
                           else self._coupling_terms(slipping))
         return K
 
@@ -796,6 +833,35 @@ class NodalContactProblem(InterfaceProblem):
         C[:, :nh, nh:nh + m] = np.einsum("kcm,kcmd->kdm", dfix.reshape(k, nf, m),
                                          self._Bt.reshape(k, nf, m, nh))
         C[:, nh + m + j, lam_col] = -self._DkT * dfix / rho_T
+        return C
+
+    def _augmented_coupling(self, slipping):
+        """2-D with the line search: element matrices ``(k, nd, nd)`` of the non-symmetric part
+        of the tangent (None: nothing slips).  A slipping dof a carries f = b p, b = -mu q_a,
+        q_a = lam_a + r gn_a (r = NEWTON_SCALE E / h, gn_a = sum_e Bn^e_a h_e / divisor_a its
+        mean gap); the equilibrium holds T_a itself (``carried``, as in
+        :meth:`_direction_coupling`) and its row is D_a (T_a - f) / rho_T, so that every
+        derivative stays in an element's block.  The symmetric part (:meth:`tangent`) holds
+        the column Bt^e_j of T_j in the rows of the jump dofs and, for symmetry, Bt^e_j in
+        the row of T_j; the rest of that row's derivative is here:
+
+        * row T_j, column lam_a: D^e_a mu p / rho_T;
+        * row T_j, jump dofs of e: mu p r Bn^e_a / rho_T times D_a over the divisor (1 where
+          D_a != 0), whose sum over the elements is D_a mu p r dgn_a / rho_T, minus the
+          symmetric part's Bt^e_j."""
+        if slipping is None or not self._mpi.allreduce(bool(slipping.any()), op=MPI.LOR):
+            return None
+        nh, m = self._nh, self._m
+        k, nd = self.indices.shape
+        rho_T = self.rho_T if self.rho_T is not None else self.rho_n
+        p = np.where(slipping, self.slip, 0.0)                                   # (k, m)
+        C = np.zeros((k, nd, nd))
+        j = np.arange(m)
+        C[:, nh + m + j, nh + j] = self._Dk / rho_T * self.mu * p
+        mean = self._D / self._mean_divisor()
+        r = NEWTON_SCALE * self._kappa
+        C[:, nh + m:, :nh] = ((self.mu * r / rho_T) * (p * mean)[:, :, None] * self._Bn
+                              - self._Bt * slipping[:, :, None])
         return C
 
     def _direction_coupling(self, slipping, trial, bound):

@@ -96,8 +96,14 @@ class NonlinearSolver:
         # the user chose a line search
         self.line_search: MeritLineSearch | None = None
         if problem is not None and problem.line_search and user_value("snes_linesearch_type") is None:
-            work = f.duplicate()
-            self.line_search = MeritLineSearch(self.newton, lambda x: model.merit(x, work), problem)
+            work: list[PETSc.Vec] = []          # made at the first merit evaluation (a sticking run has none)
+
+            def merit(x: PETSc.Vec) -> float:
+                if not work:
+                    work.append(f.duplicate())
+                return model.merit(x, work[0])
+
+            self.line_search = MeritLineSearch(self.newton, merit, problem)
             self.newton.setLineSearchPreCheck(self.line_search)
 
     def _jacobian(self, snes: PETSc.SNES, x: PETSc.Vec, J: PETSc.Mat, P: PETSc.Mat) -> None:
