@@ -215,9 +215,10 @@ CURVED = [
     # negative lumped weight does not make unique) until the gradient tie that gave it
     # left out the direction its crossed edges barely span (space.GRADIENT_RCOND): 30
     ("curved_arc_shear_quad8_gmsh", None),
-    ("curved_inclusion_mixed_quad8", "every contact dof slips at the first Newton iterate (the sticking start "
-                                     "overshoots the bound everywhere), which leaves the inclusion's rotation "
-                                     "free: the merit function stalls, the guard hands the step to the threshold "
+    ("curved_inclusion_mixed_quad8", "every contact dof slips at the first Newton iterate (the multipliers of "
+                                     "the sticking start oscillate from dof to dof: none within the bound), which "
+                                     "leaves the inclusion's rotation free: the merit function stalls, the guard "
+                                     "hands the step to the threshold "
                                      "loop, one of whose status loops reaches ITER_CONT_MAXI (forced "
                                      "convergence, CONTACT3_86) in 278 Newton iterations (474 with full "
                                      "steps), and the gap test fails"),

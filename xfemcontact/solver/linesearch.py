@@ -23,7 +23,8 @@ problem is told (``stall()``): Newton with Coulomb's law in it has stalled, and 
 on with the threshold fixed point until it has settled (:mod:`xfemcontact.contact.nodal_problem`,
 the guard).  What stalls it: the inclusion held by contact and friction alone
 (cases/campaign/curved_inclusion_mixed_quad8.toml), where every contact dof slips at the first
-iterate after the sticking start, which leaves the inclusion's rotation free: the tangent is
+iterate after the sticking start (whose multipliers oscillate from dof to dof: the weak modes of
+the multiplier space on that mesh), which leaves the inclusion's rotation free: the tangent is
 nearly singular while its few sticking dofs are not found (the merit value stays within 1e4 ..
 1e6).  With the bound mu |LAGS_C| (before the augmented one) straight interfaces at the Coulomb
 limit on unstructured cells stalled too (limit-D_q8u3x2_a+20_gen_nu0 of bench/campaign.py): a
