@@ -448,6 +448,7 @@ class NodalContactProblem(InterfaceProblem):
         self._Dk = np.einsum("kvm,kv->km", self._Tv, self._Wv)
         self._DkT = self._tile(self._Dk)
         self._D = self._assembled(self._Dk, self._DkT)[0]
+        self.equations_changed = True
 
     # -- friction components ----------------------------------------------------------
     def _tile(self, a):

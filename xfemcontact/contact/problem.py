@@ -51,6 +51,10 @@ dofs or points whose statuses differ from ``state``; ``carried_thresholds``: the
 thresholds come from a converged step (the threshold loop may then stop at its
 first iteration).
 
+``equations_changed``: the problem's equations changed since the last Newton solve (a
+status loop changed statuses; the nodal problem's dependent vertices switched modes): the
+next Newton solve takes at least one iteration, whatever its starting residual.
+
 ``bilateral`` (set by the law ``glissiere``, code_aster's GLISSIERE): contact once made
 is kept -- the status test never releases a dof or point in contact, and tension is
 admissible there.
@@ -146,6 +150,7 @@ class InterfaceProblem:
     friction: bool = False
     fallbacks: bool = False
     carried_thresholds: bool = False
+    equations_changed: bool = False
     bilateral: bool = False                  # GLISSIERE: contact once made is kept (the contact laws' problems)
     mu: float = 0.0
     friction_unknown: str = "semi-multiplier"     # what the friction dof holds: LAGS_F1, or the traction (Pa)

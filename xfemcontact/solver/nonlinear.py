@@ -67,6 +67,7 @@ class NonlinearSolver:
 
     def __init__(self, model: SolvedModel) -> None:
         self.model = model
+        self.problem = model.problem
         self.comm = model.comm
         newton = model.case.newton
         f = model.layout.create_global_vec()
