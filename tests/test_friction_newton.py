@@ -58,6 +58,32 @@ def central_difference(model, x, d, eps):
 
 
 
+def tangent_at_solution(model, seed):
+    """At the solved state ``x`` of ``model``: a random direction ``d`` of every interface
+    dof (the jump dofs on the scale of the displacements, the multipliers on that of the
+    tractions), the tangent assembled in ``model.K`` and the coupling ``C`` (checked to lie
+    in the interface elements' blocks, no entry on padding): ``(x, d, C)``."""
+    problem, x = model.problem, model.x
+    nh, m, g = problem._nh, problem._m, problem.indices
+    lo, hi = x.getOwnershipRange()
+    values = x.getArray(readonly=True)
+    rng = np.random.default_rng(seed)
+    d = x.duplicate()
+    d.set(0.0)
+    for block in (g[:, :nh], g[:, nh:nh + m][problem.slot], g[:, nh + m:][problem.fslot]):
+        dofs = np.unique(block[block >= 0])
+        dofs = dofs[(dofs >= lo) & (dofs < hi)]
+        d.setValues(dofs, rng.standard_normal(len(dofs)) * np.abs(values[dofs - lo]).max())
+    d.assemble()
+    model.residual(None, x, x.duplicate())
+    model.jacobian(None, x, model.K, model.K)
+    C = problem.coupling()
+    assert C is not None
+    live = g >= 0
+    assert not np.any(C[~(live[:, :, None] & live[:, None, :])])
+    return x, d, C
+
+
 def test_coupling_is_the_derivative_of_the_residual():
     """At a sliding state the Jacobian (assembled symmetric part plus the coupling) is the
     derivative of the residual: central differences agree to 1e-6 relative."""
@@ -112,26 +138,9 @@ def test_augmented_coupling_is_the_derivative_of_the_residual():
     assert model.solve() > 0
     problem = model.problem
     assert problem.merit_active and problem.guards == 0
-    x = model.x
-    nh, m = problem._nh, problem._m
-    g = problem.indices
+    x, d, C = tangent_at_solution(model, seed=7)
+    nh, m, g = problem._nh, problem._m, problem.indices
     lo, hi = x.getOwnershipRange()
-    values = x.getArray(readonly=True)
-    rng = np.random.default_rng(7)
-    d = x.duplicate()
-    d.set(0.0)
-    for block in (g[:, :nh], g[:, nh:nh + m][problem.slot], g[:, nh + m:][problem.fslot]):
-        dofs = np.unique(block[block >= 0])
-        dofs = dofs[(dofs >= lo) & (dofs < hi)]
-        d.setValues(dofs, rng.standard_normal(len(dofs)) * np.abs(values[dofs - lo]).max())
-    d.assemble()
-    f0 = x.duplicate()
-    model.residual(None, x, f0)
-    model.jacobian(None, x, model.K, model.K)
-    C = problem.coupling()
-    assert C is not None
-    live = g >= 0
-    assert not np.any(C[~(live[:, :, None] & live[:, None, :])])
     assert np.abs(C[:, nh + m:, :nh]).max() > 0              # the bound's dependence on the gaps
     Jd = x.duplicate()
     model.K.mult(d, Jd)
@@ -191,27 +200,7 @@ def test_coupling_is_the_derivative_of_the_residual_in_3d(coulomb_newton):
     assert model.solve() > 0
     problem = model.problem
     assert problem.guards == 0                        # the state of Coulomb's law in Newton
-    x = model.x
-    nh, m = problem._nh, problem._m
-    g = problem.indices
-    lo, hi = x.getOwnershipRange()
-    values = x.getArray(readonly=True)
-    rng = np.random.default_rng(5)
-    d = x.duplicate()
-    d.set(0.0)
-    # the jump dofs on the scale of the displacements, the multipliers on that of the tractions
-    for block in (g[:, :nh], g[:, nh:nh + m][problem.slot], g[:, nh + m:][problem.fslot]):
-        dofs = np.unique(block[block >= 0])
-        dofs = dofs[(dofs >= lo) & (dofs < hi)]
-        d.setValues(dofs, rng.standard_normal(len(dofs)) * np.abs(values[dofs - lo]).max())
-    d.assemble()
-    f0 = x.duplicate()
-    model.residual(None, x, f0)
-    model.jacobian(None, x, model.K, model.K)
-    C = problem.coupling()
-    assert C is not None
-    live = g >= 0
-    assert not np.any(C[~(live[:, :, None] & live[:, None, :])])
+    x, d, C = tangent_at_solution(model, seed=5)
     A = PETSc.Mat()
     model.K.convert("aij", A)
     entries = A.getInfo()["nz_used"]
