@@ -266,8 +266,14 @@ class NodalContactProblem(InterfaceProblem):
         self._kappa = setup.case.material.E / scales.h     # Pa/m: weighs the rows of the dofs
         #: Coulomb's law in Newton (module documentation); False: the threshold fixed point
         self.coulomb_newton = options.get("friction_newton", "COULOMB") == "COULOMB"
-        #: 2-D, Coulomb's law in Newton: Newton's steps globalised by a line search on the
-        #: complementarity functions (:attr:`merit_active`); False: full steps and the guard
+        #: 2-D, Coulomb's law in Newton: Newton's statuses those of the augmented tests at the
+        #: iterate, its steps damped on the merit function (:meth:`merit_norm`), and a stalled
+        #: merit function, not statuses met again or a chattering dof, what hands over to the
+        #: threshold fixed point (:meth:`stall`): with a line search statuses met again are no
+        #: cycle (the iterates differ), while full steps cycled (SSNV509 with mu = 0.3,
+        #: cases/validation/low_friction.toml, met the same 7 statuses over and over without
+        #: the guard; damped on the merit function it converged in 14 Newton iterations).
+        #: False: full steps and the guard
         wanted = options.get("friction_line_search", "MERIT") == "MERIT"
         self.line_search = wanted and self.coulomb_newton and self.friction and self._nf == 1
         if wanted and not self.line_search and "friction_line_search" in options.given():
@@ -338,22 +344,10 @@ class NodalContactProblem(InterfaceProblem):
                                             or self.free_start)
 
     @property
-    def _globalised(self) -> bool:
-        """2-D with Coulomb's law in Newton and the line search: Newton's statuses are those of
-        the augmented tests at the iterate, its steps are damped on the merit function
-        (:meth:`merit_norm`), and a stalled merit function, not the statuses met again or a
-        chattering dof, is what hands over to the threshold fixed point (:meth:`stall`).  With a
-        line search statuses met again are no cycle (the iterates differ), while full steps
-        cycled: SSNV509 with mu = 0.3 (cases/validation/low_friction.toml) met the same 7
-        statuses over and over without the guard (period 7, residuals down to 1e-10 of the
-        loads in it); damped on the merit function it converged in 14 Newton iterations."""
-        return self.line_search and self.coulomb_newton and self.friction and self._nf == 1
-
-    @property
     def merit_active(self) -> bool:
-        """Whether Newton's steps are damped on the merit function now (:attr:`_globalised`,
+        """Whether Newton's steps are damped on the merit function now (:attr:`line_search`,
         and Coulomb's law in Newton: not in the sticking start, not after the guard)."""
-        return self._globalised and self._in_newton
+        return self.line_search and self._in_newton
 
     def add_merit_residual(self, x: PETSc.Vec, f: PETSc.Vec) -> None:
         """Add to ``f`` the interface part of the merit function's equilibrium rows: every
@@ -652,18 +646,16 @@ class NodalContactProblem(InterfaceProblem):
         return status, h, lam, T, gt, active, bound
 
     def _augmented_pressure(self, h, lam):
-        """The pressures whose negative part bounds friction with Coulomb's law in Newton, at
-        the dofs ``(k, m)`` (Pa): LAGS_C, and with the line search (:attr:`merit_active`)
-        Alart and Curnier's augmented lam + r gn (r = NEWTON_SCALE E / h, the bound of
-        :func:`nodal.complementarity`; at a solution the same where the dof is in contact).
+        """With the line search (:attr:`merit_active`), the pressures whose negative part bounds
+        friction in Newton, at the dofs ``(k, m)`` (Pa): Alart and Curnier's augmented
+        lam + r gn (r = NEWTON_SCALE E / h, the bound of :func:`nodal.complementarity`; at a
+        solution LAGS_C where the dof is in contact).
         Measured (Newton iterations over the run with mu |LAGS_C| / with the augmented bound):
         arc under shear QUAD8 18 / 15, on Gmsh quadrangles 23 / 15, inclusion TRIA6 20 / 10 and
         QUAD8 462 / 93 (4 status loops forced / none), SSNV509 mu = 0.2 QUAD8 14 / 13, Gmsh TRIA6
         11 / 9, cases/validation/history_open_reclose.toml 40 / 15: a dof that closes has lam =
         0 at the iterate, hence no friction with mu |LAGS_C|, and slid a whole step before
         its pressure came, then reversed."""
-        if not self.merit_active:
-            return lam
         return lam + NEWTON_SCALE * self._kappa * self._gap_and_tolerances(h, lam)[0]
 
     def _mean_slip(self, h, shape):
@@ -691,7 +683,7 @@ class NodalContactProblem(InterfaceProblem):
             self.chi = self._contact_at(x)
         try:
             slip, h, lam, T, gt, active, bound = self._friction_statuses(x)
-            if self._in_newton and not self._globalised and self._cycled(committed, slip):
+            if self._in_newton and not self.line_search and self._cycled(committed, slip):
                 self.chi = committed
                 if commit:
                     self.guarded = True
@@ -755,7 +747,7 @@ class NodalContactProblem(InterfaceProblem):
             self._seen_slip.add(self._fingerprint(self.slip))
             self._flips += self._changed(slip, self.slip)
             self.slip = slip
-            if in_newton and not self._globalised and \
+            if in_newton and not self.line_search and \
                     self._mpi.allreduce(bool((self._flips >= CHATTER_FLIPS).any()), op=MPI.LOR):
                 self.guarded = True           # a dof chatters: the guard (module documentation)
                 self.guards += 1

@@ -36,9 +36,9 @@ Implemented as the pre-check of PETSc's line search (``SNESLineSearchSetPreCheck
 step PETSc's own line search (``basic``: full steps, the default) then takes is the damped one.
 Not used when the user chose ``-snes_linesearch_type``.
 
-The default in 2-D (``-xfc_friction_line_search NONE``: full steps and the cycle guard, the
-method of earlier versions), with the augmented bound of Coulomb's law
-(:mod:`xfemcontact.contact.nodal_problem`).  Measured against full steps on the sliding campaign
+The default in 2-D, with the augmented bound of Coulomb's law
+(:mod:`xfemcontact.contact.nodal_problem`); ``-xfc_friction_line_search NONE`` gives full steps
+and the cycle guard, the method of earlier versions.  Measured against full steps on the sliding campaign
 (``bench/campaign.py``, 40 cases, 480 runs: every converged answer the same to 1.5e-10 of the
 scales where the closed forms hold), the Newton iterations: the curved cases 34, 25, 23, 16, 15
 -> 15, 15, 13, 9, 10, the straight ones at the Coulomb limit 21 -> 7, 12 -> 5, 12 -> 14,
