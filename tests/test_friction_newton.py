@@ -259,6 +259,39 @@ def test_conditions_at_the_dofs(tmp_path, run_once):
     assert max(ok["conditions"][k] for k in measures) <= 1e-13, ok["conditions"]
 
 
+def test_conditions_warning():
+    """The warning of a converged solve reads every condition but ``threshold`` (RESI_FROT's),
+    and only above CONDITIONS_WARN; None entries (glissiere, no friction) are skipped."""
+    from xfemcontact.contact.problem import CONDITIONS_WARN, conditions_warning
+
+    ok = dict(pressure_scale_pa=100.0, jump_scale_m=1e-3, tension=1e-14, interpenetration=0.0,
+              contact_complementarity=3e-15, friction_excess=None, friction_complementarity=None,
+              slip_direction=None, threshold=5e-3)
+    assert conditions_warning(ok) is None and conditions_warning(None) is None
+    assert conditions_warning(dict(ok, tension=CONDITIONS_WARN)) is None
+    note = conditions_warning(dict(ok, interpenetration=2e-6, friction_excess=1e-7))
+    assert note is not None and "2.0e-06" in note and "(interpenetration;" in note
+
+
+def test_a_forced_answer_is_flagged(tmp_path):
+    """A run whose status loop is forced (CONTACT3_86) ends converged with a state that is
+    no solution: the floating inclusion of bench/inclusion_family.py on 24 x 24 TRIA6 with
+    R = 2.1 m leaves a dof in tension (0.86 of the pressure scale), and the run says so in a
+    warning of its own, on stderr and in results.json."""
+    spec = importlib.util.spec_from_file_location("inclusion_family", ROOT / "bench" / "inclusion_family.py")
+    family = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(family)
+    case = tmp_path / "inclusion.toml"
+    case.write_text(family.variant(family.TEMPLATE.read_text(), "TRIA6", 24, 2.1))
+    p = run_cli(["run", case, "-o", tmp_path / "out"])
+    r = results(tmp_path / "out")
+    assert r["converged"] and any("CONTACT3_86" in w for w in r["warnings"])
+    assert r["conditions"]["tension"] > 0.1
+    flagged = [w for w in r["warnings"] if "holds at the multiplier dofs only to" in w]
+    assert len(flagged) == 1 and "(tension;" in flagged[0], r["warnings"]
+    assert "holds at the multiplier dofs only to" in p.stderr
+
+
 def test_sticking_keeps_one_symmetric_factorisation(run_once):
     """SSNV509 a sticks everywhere: nothing couples, one Newton iteration, one Cholesky
     factorisation of the symmetric (SBAIJ) matrix."""

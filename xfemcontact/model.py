@@ -319,7 +319,10 @@ class Model:
         self.layout.release_setup()      # PetscSections and DMPlex: not needed from here on
         release_heap()
         with phase("solve"):
-            return self.solver.solve(self.x)
+            reason = self.solver.solve(self.x)
+        if reason > 0 and self.problem is not None:
+            self.problem.check_conditions(self.x)
+        return reason
 
     def run_warnings(self) -> list[str]:
         """Warnings of the solve (one line each)."""

@@ -111,6 +111,30 @@ if TYPE_CHECKING:
 #: the fields of :meth:`InterfaceProblem.surface_values` (3-D), each ``(k, p)``
 SURFACE_FIELDS = ("LAGS_C", "LAGS_F1", "LAGS_F2", "T", "gap", "slip1", "slip2", "slip", "contact", "sliding")
 
+#: a converged solve whose conditions at the multiplier dofs are further than this from holding,
+#: relative to their scales, gets a warning.  Measured (results.json ``conditions``): the 81 case
+#: files of cases/ at most 2.5e-12, the sliding campaign's 480 runs 4.6e-14; a run whose status
+#: loop was forced (CONTACT3_86) up to 0.86 (bench/inclusion_family.py, TRIA6 N = 24, R = 2.1)
+CONDITIONS_WARN = 1e-8
+#: the entries of ``conditions`` the warning reads (``threshold`` is RESI_FROT's: the threshold
+#: loop stops there by design)
+CONDITIONS_CHECKED = ("tension", "interpenetration", "contact_complementarity", "friction_excess",
+                      "friction_complementarity", "slip_direction")
+
+
+def conditions_warning(found: dict[str, Any] | None) -> str | None:
+    """The warning for the conditions ``found`` (:meth:`InterfaceProblem.conditions`) of a
+    converged solve, None if each holds to :data:`CONDITIONS_WARN` (or there are none)."""
+    if not found:
+        return None
+    worst = max(((float(found[k]), k) for k in CONDITIONS_CHECKED if found.get(k) is not None),
+                default=(0.0, ""))
+    if worst[0] <= CONDITIONS_WARN:
+        return None
+    return (f"the contact law holds at the multiplier dofs only to {worst[0]:.1e} of its scales "
+            f"({worst[1]}; round-off is below {CONDITIONS_WARN:g}): this answer is not a solution of "
+            "the discrete problem; see results.json \"conditions\" and the README, Checking the answer")
+
 
 @dataclass
 class InterfaceSetup:
@@ -370,6 +394,13 @@ class InterfaceProblem:
         """How far the law's conditions are from holding at ``x`` (None: no conditions to
         check; see :meth:`xfemcontact.contact.nodal_problem.NodalContactProblem.conditions`)."""
         return None
+
+    def check_conditions(self, x: PETSc.Vec) -> None:
+        """After a converged solve: a warning (:attr:`warnings`) if the law's conditions at the
+        dofs of ``x`` are further than :data:`CONDITIONS_WARN` from holding (all processes)."""
+        note = conditions_warning(self.conditions(x))
+        if note is not None:
+            self.warnings.append(note)
 
     def summary(self) -> dict[str, Any] | None:
         return None

@@ -1,0 +1,125 @@
+"""A family of floating inclusions held by contact and friction alone: how Newton fares.
+
+    .venv/bin/python bench/inclusion_family.py                      # 30 runs, about 3 min on 2 cores
+    .venv/bin/python bench/inclusion_family.py --cells QUAD8 --n 20 40
+    .venv/bin/python bench/inclusion_family.py -- -xfc_friction_line_search NONE
+
+The template is ``cases/campaign/curved_inclusion_mixed_quad8.toml``: a circular inclusion of
+radius R in a 10 m plate, the same material, held only by contact and Coulomb friction
+(mu = 0.5), under sigma_xx = -100 Pa, sigma_yy = +20 Pa, sigma_xy = 30 Pa: open, slip and
+stick zones side by side.  Its mesh (N x N cells, QUAD8 or TRIA6) and its radius change; each
+variant is written into the scratch folder (``ITER_GLOB_MAXI`` 60, the rest as the template)
+and run with ``python -m xfemcontact run``, options after ``--`` passed on.
+
+Printed, per run: converged, Newton iterations over the run, threshold iterations,
+forced status loops (CONTACT3_86), the hand-overs of a stalled line search to the threshold
+fixed point (``guards``), and the largest condition violation at the dofs relative to the
+scales (results.json ``conditions``).  Written to ``bench/results/<name>.md`` and ``.json``.
+
+These are the hardest cases we know for the semi-smooth Newton: the inclusion's rotation is
+held by friction alone, so a Newton iterate where most contact dofs slip has a nearly singular
+tangent (see :mod:`xfemcontact.solver.linesearch`).
+"""
+import argparse
+import concurrent.futures
+import json
+import pathlib
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+TEMPLATE = ROOT / "cases" / "campaign" / "curved_inclusion_mixed_quad8.toml"
+CONDITIONS = ("tension", "interpenetration", "contact_complementarity", "friction_excess",
+              "friction_complementarity", "threshold")
+
+
+def variant(text: str, cell: str, n: int, radius: float) -> str:
+    """The template with an n x n mesh of ``cell`` and the inclusion's radius (m)."""
+    out, k = re.subn(r"nx = \d+, ny = \d+", f"nx = {n}, ny = {n}", text)
+    out, k2 = re.subn(r'cell = "QUAD8"', f'cell = "{cell}"', out)
+    out, k3 = re.subn(r"- 2\.3\*\*2", f"- {radius}**2", out)
+    out, k4 = re.subn(r"iter_glob_maxi = \d+", "iter_glob_maxi = 60", out)
+    if (k, k2, k3, k4) != (1, 1, 1, 1):
+        raise SystemExit(f"error: {TEMPLATE}: the template changed; update bench/inclusion_family.py")
+    return out
+
+
+def run(job: dict, options: list[str]) -> dict:
+    """Run one variant; returns its row."""
+    t0 = time.perf_counter()
+    cmd = [sys.executable, "-m", "xfemcontact", "run", str(job["toml"]), "-o", str(job["out"]),
+           "--overwrite", *options]
+    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    row = dict(name=job["name"], cell=job["cell"], n=job["n"], radius=job["radius"], rc=proc.returncode,
+               seconds=round(time.perf_counter() - t0, 2))
+    try:
+        r = json.loads((job["out"] / "results.json").read_text())
+    except (OSError, ValueError):
+        row.update(converged=False, error=(proc.stderr.strip().splitlines() or ["no results.json"])[-1])
+        return row
+    it = r.get("iterations", {})
+    cond = r.get("conditions") or {}
+    row.update(converged=bool(r.get("converged")), newton=it.get("newton"), threshold=it.get("friction"),
+               forced=sum("CONTACT3_86" in w for w in r.get("warnings", [])),
+               guards=(r.get("multipliers") or {}).get("cycle_guards"),
+               conditions=max((float(cond[k]) for k in CONDITIONS if cond.get(k) is not None), default=None))
+    return row
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--cells", nargs="+", default=["QUAD8", "TRIA6"], choices=["QUAD8", "TRIA6"])
+    ap.add_argument("--n", nargs="+", type=int, default=[16, 20, 24, 30, 40], help="cells per side")
+    ap.add_argument("--radius", nargs="+", type=float, default=[2.1, 2.3, 2.45], help="m")
+    ap.add_argument("--slots", type=int, default=2, help="runs at a time")
+    ap.add_argument("--scratch", default="/tmp/xfc_inclusion_family")
+    ap.add_argument("--name", default="inclusion_family")
+    ap.add_argument("--limit", type=int, default=25, help="Newton iterations counted as slow above this")
+    ap.add_argument("options", nargs="*", help="xfemcontact options, after --")
+    a = ap.parse_args()
+    scratch = pathlib.Path(a.scratch)
+    shutil.rmtree(scratch, ignore_errors=True)
+    scratch.mkdir(parents=True)
+    text = TEMPLATE.read_text()
+    jobs = []
+    for cell in a.cells:
+        for n in a.n:
+            for radius in a.radius:
+                name = f"{cell.lower()}_n{n}_r{radius}"
+                toml = scratch / f"{name}.toml"
+                toml.write_text(variant(text, cell, n, radius))
+                jobs.append(dict(name=name, cell=cell, n=n, radius=radius, toml=toml, out=scratch / name))
+    t0 = time.perf_counter()
+    with concurrent.futures.ThreadPoolExecutor(a.slots) as pool:
+        rows = list(pool.map(lambda j: run(j, a.options), jobs))
+    total = time.perf_counter() - t0
+    head = "| variant | converged | Newton | threshold it. | forced loops | hand-overs | dof conditions | s |"
+    lines = [f"`python bench/inclusion_family.py {' '.join(sys.argv[1:])}`: {len(rows)} runs in {total:.0f} s",
+             "", head, "|" + "---|" * 8]
+    for r in rows:
+        c = r.get("conditions")
+        lines.append(f"| {r['name']} | {'yes' if r['converged'] else 'NO'} | {r.get('newton', '-')} | "
+                     f"{r.get('threshold', '-')} | {r.get('forced', '-')} | {r.get('guards', '-')} | "
+                     f"{'-' if c is None else f'{c:.1e}'} | {r['seconds']} |")
+    for cell in a.cells:
+        sub = [r for r in rows if r["cell"] == cell]
+        ok = [r for r in sub if r["converged"]]
+        lines.append("")
+        lines.append(f"{cell}: {len(ok)} / {len(sub)} converged; "
+                     f"{sum(1 for r in ok if (r.get('newton') or 0) <= a.limit)} within {a.limit} Newton "
+                     f"iterations; {sum(1 for r in sub if r.get('forced'))} with forced status loops; "
+                     f"Newton iterations over all runs {sum(r.get('newton') or 0 for r in sub)}")
+    out = "\n".join(lines)
+    print(out)
+    res = ROOT / "bench" / "results"
+    res.mkdir(exist_ok=True)
+    (res / f"{a.name}.md").write_text(out + "\n")
+    (res / f"{a.name}.json").write_text(json.dumps(dict(argv=sys.argv[1:], rows=rows), indent=1, default=str))
+    print(f"\nwrote {res / a.name}.md and .json")
+
+
+if __name__ == "__main__":
+    main()
