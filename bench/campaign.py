@@ -6,6 +6,7 @@ with coefficient sweeps over 8 decades and on 1, 2 and 3 processes.
     .venv/bin/python bench/campaign.py --cases 'limit-*'   # a subset (glob on the case names)
     .venv/bin/python bench/campaign.py --procs 1           # no MPI runs
     .venv/bin/python bench/campaign.py --integration NOEUD # adds [contact] integration = "NOEUD"
+    .venv/bin/python bench/campaign.py --algo STABLE       # adds [contact] algo_lagr = "STABLE"
     .venv/bin/python bench/campaign.py --list              # the cases and their closed forms
     .venv/bin/python bench/campaign.py --verify            # check every closed form by substitution
     .venv/bin/python bench/campaign.py --write-examples    # rewrite the examples in cases/campaign/
@@ -862,6 +863,8 @@ def make_jobs(entry, args, scratch):
     base = set_table_keys(entry.text, "output", {"plots": "false"})
     if args.integration:
         base = set_table_keys(base, "contact", {"integration": json.dumps(args.integration)})
+    if args.algo:
+        base = set_table_keys(base, "contact", {"algo_lagr": json.dumps(args.algo)})
     for procs in args.procs:
         sweep = procs == args.procs[0] or args.mpi_sweep
         for fc, ff in (pts if sweep else [(1.0, 1.0)]):
@@ -1142,6 +1145,7 @@ def main(argv=None):
     ap.add_argument("--grid", action="store_true", help="every (coef_cont, coef_frot) pair, not the cross")
     ap.add_argument("--no-absent", action="store_true", help="no run without the coefficients")
     ap.add_argument("--integration", choices=("GAUSS", "NOEUD"), help='write [contact] integration = "..."')
+    ap.add_argument("--algo", choices=("AUTO", "STABLE", "NON"), help='write [contact] algo_lagr = "..."')
     ap.add_argument("--slots", type=int, default=2, help="most processes at a time")
     ap.add_argument("--scratch", type=pathlib.Path, default=RESULTS / "campaign-runs")
     ap.add_argument("--keep", action="store_true", help="keep the output folders")
@@ -1218,7 +1222,8 @@ def main(argv=None):
               f"`{cmd.strip()}`: {len(entries)} cases, {sum(len(j) for j in jobs.values())} runs in {wall:.0f} s; "
               f"coefficient factors {list(factors)} of E/h and E/(h mu |LAGS_C|) "
               f"({'grid' if args.grid else 'one coefficient at a time'}), processes {args.procs}"
-              + (f", integration = {args.integration}" if args.integration else "") + ".\n\n" + LEGEND)
+              + (f", integration = {args.integration}" if args.integration else "")
+              + (f", algo_lagr = {args.algo}" if args.algo else "") + ".\n\n" + LEGEND)
     md = markdown(rows, header)
     print(md)
     RESULTS.mkdir(parents=True, exist_ok=True)

@@ -3,13 +3,14 @@
     .venv/bin/python bench/inclusion_family.py                      # 30 runs, about 3 min on 2 cores
     .venv/bin/python bench/inclusion_family.py --cells QUAD8 --n 20 40
     .venv/bin/python bench/inclusion_family.py -- -xfc_friction_line_search NONE
+    .venv/bin/python bench/inclusion_family.py --algo STABLE --name inclusion_family_stable
 
 The template is ``cases/campaign/curved_inclusion_mixed_quad8.toml``: a circular inclusion of
 radius R in a 10 m plate, the same material, held only by contact and Coulomb friction
 (mu = 0.5), under sigma_xx = -100 Pa, sigma_yy = +20 Pa, sigma_xy = 30 Pa: open, slip and
 stick zones side by side.  Its mesh (N x N cells, QUAD8 or TRIA6) and its radius change; each
-variant is written into the scratch folder (``ITER_GLOB_MAXI`` 60, the rest as the template)
-and run with ``python -m xfemcontact run``, options after ``--`` passed on.
+variant is written into the scratch folder (``ITER_GLOB_MAXI`` 60, ``--algo``: the multiplier
+space ``algo_lagr``, the rest as the template) and run with ``python -m xfemcontact run``, options after ``--`` passed on.
 
 Printed, per run: converged, Newton iterations over the run, threshold iterations,
 forced status loops (CONTACT3_86), the hand-overs of a stalled line search to the threshold
@@ -36,14 +37,17 @@ CONDITIONS = ("tension", "interpenetration", "contact_complementarity", "frictio
               "friction_complementarity", "threshold")
 
 
-def variant(text: str, cell: str, n: int, radius: float) -> str:
-    """The template with an n x n mesh of ``cell`` and the inclusion's radius (m)."""
+def variant(text: str, cell: str, n: int, radius: float, algo: str | None = None) -> str:
+    """The template with an n x n mesh of ``cell``, the inclusion's radius (m) and the
+    multiplier space ``algo`` (None: the default)."""
     out, k = re.subn(r"nx = \d+, ny = \d+", f"nx = {n}, ny = {n}", text)
     out, k2 = re.subn(r'cell = "QUAD8"', f'cell = "{cell}"', out)
     out, k3 = re.subn(r"- 2\.3\*\*2", f"- {radius}**2", out)
     out, k4 = re.subn(r"iter_glob_maxi = \d+", "iter_glob_maxi = 60", out)
     if (k, k2, k3, k4) != (1, 1, 1, 1):
         raise SystemExit(f"error: {TEMPLATE}: the template changed; update bench/inclusion_family.py")
+    if algo is not None:
+        out = out.replace("[contact]\n", f'[contact]\nalgo_lagr = "{algo}"\n', 1)
     return out
 
 
@@ -74,6 +78,7 @@ def main() -> None:
     ap.add_argument("--cells", nargs="+", default=["QUAD8", "TRIA6"], choices=["QUAD8", "TRIA6"])
     ap.add_argument("--n", nargs="+", type=int, default=[16, 20, 24, 30, 40], help="cells per side")
     ap.add_argument("--radius", nargs="+", type=float, default=[2.1, 2.3, 2.45], help="m")
+    ap.add_argument("--algo", choices=["AUTO", "STABLE", "NON"], help="[contact] algo_lagr (default: the case's)")
     ap.add_argument("--slots", type=int, default=2, help="runs at a time")
     ap.add_argument("--scratch", default="/tmp/xfc_inclusion_family")
     ap.add_argument("--name", default="inclusion_family")
@@ -90,7 +95,7 @@ def main() -> None:
             for radius in a.radius:
                 name = f"{cell.lower()}_n{n}_r{radius}"
                 toml = scratch / f"{name}.toml"
-                toml.write_text(variant(text, cell, n, radius))
+                toml.write_text(variant(text, cell, n, radius, a.algo))
                 jobs.append(dict(name=name, cell=cell, n=n, radius=radius, toml=toml, out=scratch / name))
     t0 = time.perf_counter()
     with concurrent.futures.ThreadPoolExecutor(a.slots) as pool:

@@ -272,6 +272,9 @@ def _preflight_3d(case: Case, raw: RawMesh, used: IntArray, result: Preflight) -
 
     itf = case.interface
     phi: FloatArray | None = None
+    if itf is not None and case.contact.algo_lagr == "STABLE":
+        raise CaseError(f"{case.source}: contact.algo_lagr: STABLE is a 2-D multiplier space; in 3-D "
+                        "use AUTO (the default) or NON")
     if itf is not None:
         x = raw.points
         if itf.level_set is not None:

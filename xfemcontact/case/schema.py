@@ -312,8 +312,10 @@ CONTACT = Table({
                      "quadrangle are not polynomials along the interface)", ge=1, le=8),
     "algo_lagr": Key("choice", "multiplier space: AUTO (= VERSION3) makes the vertex multipliers "
                      "unique (weak vertices aggregated, kernels of straight interfaces tied); "
+                     "STABLE (2-D) ties the ends of the crossed edges in stars, one dof per star: "
+                     "robust Newton in sliding, coarser multipliers; "
                      "NON = raw vertex space (may be singular, for comparison)", default="AUTO",
-                     choices=("AUTO", "VERSION3", "NON")),
+                     choices=("AUTO", "VERSION3", "STABLE", "NON")),
     "friction_unknown": Key("choice", "friction dof of integration = GAUSS: LAGS_F1 = code_aster's "
                             "semi-multiplier (exact |LAGS_F1| = 1 in slip), TRACTION = tangential "
                             "traction (stick tangent independent of the threshold: fewer "

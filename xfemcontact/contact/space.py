@@ -260,6 +260,8 @@ def build(mesh: LocalMesh, segments: Segments, algo: str = "AUTO",
     if algo != "NON" and len(space.ids):
         assert lin_at_points is not None and weights is not None      # needed by the ties
         _tie_kernels(space, mesh, edges, r, lin_at_points, weights)
+        if algo == "STABLE":                     # its ties are merges by design
+            return space
         merged: set[tuple[int, int]] = set()
         while space.tie_edges:
             tied = _gradient_ties(space, topo, nv, ids, xv, strong, ext, edges, cverts, merged)
@@ -647,6 +649,12 @@ def _tie_kernels(space: MultiplierSpace, mesh: LocalMesh, edges: IntArray, r: Fl
     order = np.argsort(comp, kind="stable")
     bounds = np.searchsorted(comp[order], np.arange(ncomp + 1))
     centrality = np.abs(rr - 0.5)
+    if space.algo == "STABLE":
+        root = _star_roots(ids, ia, ib, space)
+        _tie_twins(space, G, root)
+        space.smallest = _tie_global_kernels(space, G, e, ia, ib, centrality, root)
+        space.rep = ids[root]
+        return
     lams = _packet_eigenvalues(G, order, bounds)
     fine = lams >= kernel
     smallest = lams[fine].min() if fine.any() else np.inf
@@ -675,6 +683,38 @@ def _tie_kernels(space: MultiplierSpace, mesh: LocalMesh, edges: IntArray, r: Fl
     smallest = min(smallest, _tie_global_kernels(space, G, e, ia, ib, centrality, root))
     space.smallest = smallest
     space.rep = ids[root]
+
+
+def _star_roots(ids: IntArray, ia: IntArray, ib: IntArray, space: MultiplierSpace) -> IntArray:
+    """``algo_lagr = "STABLE"``: the crossed edges ``(ia, ib)`` (indices into ``ids``) grouped
+    into stars, each star's vertices one dof.  Greedy, the vertices taken by decreasing number
+    of crossed edges (then input id): a vertex not in a star yet starts one with its
+    neighbours across the interface that are not in one yet.  Every crossed edge then has
+    both ends in one star, or joins two stars (its intersection value varies between them):
+    about one dof per star centre, in the spirit of the stable spaces of Bechet, Moes and
+    Wohlmuth (2009), instead of one per vertex.  Returns ``root`` (the smallest member of
+    each vertex's star, as indices into ``ids``); counts the ties in ``space``."""
+    n = len(ids)
+    deg = np.bincount(np.concatenate([ia, ib]), minlength=n)
+    a = np.concatenate([ia, ib])
+    b = np.concatenate([ib, ia])
+    o = np.lexsort((ids[b], a))
+    a, b = a[o], b[o]
+    start = np.searchsorted(a, np.arange(n + 1))
+    star = np.full(n, -1)
+    for v in np.lexsort((ids, -deg)):            # set-up only: one pass over the carriers
+        if star[v] >= 0 or deg[v] == 0:
+            continue
+        star[v] = v
+        leaves = b[start[v]:start[v + 1]]
+        leaves = leaves[star[leaves] < 0]
+        star[leaves] = v
+        space.n_ties += len(leaves)
+        space.tie_edges.extend((int(ids[min(v, w)]), int(ids[max(v, w)]), 0.0) for w in leaves)
+    star = np.where(star < 0, np.arange(n), star)
+    smallest = np.full(n, n)
+    np.minimum.at(smallest, star, np.arange(n))
+    return smallest[star]
 
 
 def _tie_twins(space: MultiplierSpace, G: Sparse, root: IntArray) -> None:
