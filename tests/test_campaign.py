@@ -126,10 +126,11 @@ def test_straight_closed_form(run_once, name):
     # were judged on the trial traction T + r gt (a dof that starts slipping settles in one
     # step) and the threshold update was halved after every status change; 23, 22 and 21
     # before Coulomb's law went into Newton; 12, 14 and 21 with full steps and the guard (the
-    # last one met it); 5, 14 and 7 with the line search and the augmented bound
-    ("limit-D_q8u_a-30_gen_nu3d", 5),
-    ("limit-T_t6s20_a+27_gen_nu0", 14),
-    ("limit-D_q8u3x2_a+20_gen_nu0", 7),
+    # last one met it); 5, 14 and 7 with the line search and the augmented bound; 7, 10 and 6
+    # with the coarse start (its Newton iterations in the stable space included)
+    ("limit-D_q8u_a-30_gen_nu3d", 7),
+    ("limit-T_t6s20_a+27_gen_nu0", 10),
+    ("limit-D_q8u3x2_a+20_gen_nu0", 6),
 ])
 def test_straight_unstructured_quad8_newton(run_once, name, newton):
     """Exact answers in as many Newton iterations as the statuses need."""
@@ -215,13 +216,10 @@ CURVED = [
     # negative lumped weight does not make unique) until the gradient tie that gave it
     # left out the direction its crossed edges barely span (space.GRADIENT_RCOND): 30
     ("curved_arc_shear_quad8_gmsh", None),
-    ("curved_inclusion_mixed_quad8", "every contact dof slips at the first Newton iterate (the multipliers of "
-                                     "the sticking start oscillate from dof to dof: none within the bound), which "
-                                     "leaves the inclusion's rotation free: the merit function stalls, the guard "
-                                     "hands the step to the threshold "
-                                     "loop, one of whose status loops reaches ITER_CONT_MAXI (forced "
-                                     "convergence, CONTACT3_86) in 278 Newton iterations (474 with full "
-                                     "steps), and the gap test fails"),
+    ("curved_inclusion_mixed_quad8", "converges (18 Newton iterations with the coarse start; 278 and a forced "
+                                     "status loop from the sticking start), but the point gap between an open "
+                                     "and a closed dof reaches -8.0e-6 m at the end of the contact zone "
+                                     "(displacements 1e-3 m; the dof gaps are >= 0)"),
     ("curved_inclusion_mixed_tria6_gmsh", "converges (10 Newton iterations), but the point gap between an open "
                                           "and a closed dof reaches -2.7e-6 m at the end of the contact zone "
                                           "(displacements 1e-3 m; the dof gaps are >= 0)"),
@@ -256,9 +254,11 @@ def test_curved_coulomb_admissible(run_once, name):
     path = campaign.CAMPAIGN / f"{name}.toml"
     p, out = run_once(path)                    # curved_ssnv509_mu02_quad8: shared with test_friction_newton
     assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-2000:]
-    # measured with the line search and the augmented bound (before: 82, 53, 120, 121 with the
-    # threshold loop alone, 43, 25, 43, 58 with the statuses judged on the trial traction, 24,
-    # 19, 37, 30 with Coulomb's law in Newton and the guard, 23, 16, 34, 25 re-armed after it)
-    bound = {"curved_ssnv509_mu02_quad8": 13, "curved_ssnv509_mu02_tria6_gmsh": 9,
-             "curved_arc_shear_quad8": 15, "curved_arc_shear_quad8_gmsh": 15}[name]
+    # measured with the coarse start (its Newton iterations in the stable space included;
+    # before: 82, 53, 120, 121 with the threshold loop alone, 43, 25, 43, 58 with the statuses
+    # judged on the trial traction, 24, 19, 37, 30 with Coulomb's law in Newton and the guard,
+    # 23, 16, 34, 25 re-armed after it, 13, 9, 15, 15 with the line search from the sticking
+    # start, -xfc_coarse_start NONE)
+    bound = {"curved_ssnv509_mu02_quad8": 21, "curved_ssnv509_mu02_tria6_gmsh": 14,
+             "curved_arc_shear_quad8": 20, "curved_arc_shear_quad8_gmsh": 21}[name]
     assert results(out)["iterations"]["newton"] <= bound

@@ -525,3 +525,49 @@ def test_stable_space_is_two_dimensional(tmp_path):
     errors = [line for line in p.stderr.splitlines() if line.startswith("error:")]
     assert len(errors) == 1 and "contact.algo_lagr: STABLE is a 2-D multiplier space" in errors[0]
     assert not (tmp_path / "out").exists()
+
+
+def test_coarse_start_on_a_floating_inclusion(tmp_path):
+    """The default space (AUTO) with the coarse start (the default): the sticking start of the
+    inclusion breaks the law, the case is solved in the stable space first, and Newton in the
+    default space goes on from there: converged in at most 25 Newton iterations in all (18
+    measured), no hand-over, no forced status loop; without it (-xfc_coarse_start NONE) 278
+    and a forced loop (CONTACT3_86).  Both are the same solution (8e-14 of the pressure scale
+    measured): the start changes the path, not the answer."""
+    case = _inclusion(tmp_path, algo=None)
+    runs = {}
+    for mode in ("STABLE", "NONE"):
+        out = tmp_path / mode
+        p = run_cli(["run", case, "-o", out, "-xfc_coarse_start", mode])
+        assert p.returncode in (0, 1), p.stderr                  # 1: the point-gap test
+        runs[mode] = results(out)
+    r = runs["STABLE"]
+    coarse = r["iterations"]["coarse_start"]
+    assert coarse["used"] and coarse["converged"] and coarse["algo_lagr"] == "STABLE"
+    assert r["multipliers"]["algo_lagr"] == "AUTO"
+    assert r["iterations"]["newton"] <= 25 and r["multipliers"]["cycle_guards"] == 0 and not r["warnings"]
+    assert r["iterations"]["newton"] == coarse["newton"] + sum(r["iterations"]["newton_per_solve"])
+    old = runs["NONE"]
+    assert old["iterations"]["coarse_start"] is None and old["iterations"]["newton"] > 100
+    assert any("CONTACT3_86" in w for w in old["warnings"])
+    a, b = r["interface"], old["interface"]
+    scale = np.abs(np.array(a["LAGS_C"])).max()
+    assert np.abs(np.array(a["LAGS_C"]) - np.array(b["LAGS_C"])).max() <= 1e-10 * scale
+    assert np.abs(np.array(a["LAGS_F1"]) - np.array(b["LAGS_F1"])).max() <= 1e-10
+
+
+@pytest.mark.mpi
+def test_coarse_start_on_two_processes(tmp_path):
+    """The coarse model is distributed like the case; its values go over by input node ids:
+    2 processes give the one-process answer."""
+    case = _inclusion(tmp_path, algo=None)
+    runs = {}
+    for n in (1, 2):
+        out = tmp_path / f"np{n}"
+        p = run_cli(["run", case, "-o", out], np=n if n > 1 else None)
+        assert p.returncode in (0, 1), p.stderr
+        runs[n] = results(out)
+        assert runs[n]["iterations"]["coarse_start"]["used"]
+    for k, scale in (("LAGS_C", 100.0), ("LAGS_F1", 1.0), ("gap", 1e-3), ("slip", 1e-3)):
+        d = np.abs(np.array(runs[2]["interface"][k]) - np.array(runs[1]["interface"][k])).max()
+        assert d <= 1e-10 * scale, (k, d)

@@ -381,8 +381,8 @@ def test_every_documented_mumps_ordering_runs(tmp_path):
     (("-xfc_friction_unknown",), "-xfc_friction_unknown: needs a value (one of LAGS_F1, TRACTION)"),
     (("-xfc_frictionunknown", "traction"),
      "-xfc_frictionunknown: unknown option (did you mean -xfc_friction_unknown? known: "
-     "-xfc_friction_unknown, -xfc_friction_newton, -xfc_friction_line_search, -xfc_mesh_max_mb, "
-     "-xfc_memory_limit)"),
+     "-xfc_friction_unknown, -xfc_friction_newton, -xfc_friction_line_search, -xfc_coarse_start, "
+     "-xfc_mesh_max_mb, -xfc_memory_limit)"),
     (("-xfc_mesh_max_mb", "-5"), "-xfc_mesh_max_mb -5: out of range (expected a number > 0 and "
                                  "<= 1e+09)"),
 ])

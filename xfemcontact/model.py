@@ -15,9 +15,11 @@ in :data:`xfemcontact.timing.TIMINGS`.
 """
 from __future__ import annotations
 
+import time
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from mpi4py import MPI
 
 from xfemcontact import preflight
 from xfemcontact._petsc import PETSc
@@ -122,6 +124,9 @@ class Model:
         self.x = self.layout.create_global_vec()
         self.x.set(0.0)
         self.solver = None
+        #: the loads are the case's own (no instant of a load history): a coarse model of the
+        #: same case solves the same problem (:meth:`coarse_start`)
+        self.loads_from_case = True
 
     @classmethod
     def from_case(cls, case: Case, raw: RawMesh | None = None) -> Model:
@@ -307,6 +312,7 @@ class Model:
         values ``x_bc`` (local work array), ``f0`` (global Vec) and the reference of
         Newton's relative criterion ``load_norm``.  The bulk matrix does not change."""
         self.x_bc, self.f0, self.load_norm = x_bc, f0, load_norm
+        self.loads_from_case = False
 
     # -- solve --------------------------------------------------------------
     def solve(self) -> int:
@@ -316,6 +322,8 @@ class Model:
         changed keeps its factorisation."""
         if self.solver is None:
             self.solver = NonlinearSolver(self)
+            if self.mesh.dim == 2 and self.problem is not None and self.loads_from_case:
+                self.solver.coarse_start = self.coarse_start
         self.layout.release_setup()      # PetscSections and DMPlex: not needed from here on
         release_heap()
         with phase("solve"):
@@ -323,6 +331,80 @@ class Model:
         if reason > 0 and self.problem is not None:
             self.problem.check_conditions(self.x)
         return reason
+
+    def coarse_start(self, x: PETSc.Vec) -> dict[str, Any] | None:
+        """Replace the sticking start ``x`` by the solution of the same case in the stable
+        multiplier space (``algo_lagr = "STABLE"``, 2-D), when the problem asks for it
+        (:meth:`~xfemcontact.contact.problem.InterfaceProblem.wants_coarse_start`).
+
+        The rich default space has nearly invisible differences between the vertex multipliers
+        on either side of a curved interface; from the sticking start Newton can wander between
+        near-solutions of its discrete law (a body held by friction alone: 278 Newton
+        iterations and a forced status loop, bench/inclusion_family.py).  The stable space has
+        none (8), and from its answer Newton in the rich space converges in a few iterations
+        (9): the answer is the rich space's, only the start changes.  The coarse model is built
+        and solved like this one (its own mesh distribution, layout and factors, released
+        after), its displacements, Heaviside dofs and multipliers copied into ``x`` by input
+        node ids (a rich-space carrier takes the value of its star in the stable space).
+        Returns what it did (results.json ``iterations.coarse_start``); ``x`` is left as it was
+        if the coarse solve did not converge."""
+        import dataclasses
+
+        t0 = time.perf_counter()
+        case = dataclasses.replace(self.case, contact=dataclasses.replace(self.case.contact, algo_lagr="STABLE"))
+        coarse = Model(case)
+        coarse.solver = NonlinearSolver(coarse)
+        reason = coarse.solver.solve(coarse.x)
+        its = coarse.solver.iterations()
+        done = {"algo_lagr": "STABLE", "converged": reason > 0, "newton": int(its["newton"]),
+                "threshold_iterations": int(its.get("friction", 0)), "used": False}
+        if reason > 0:
+            done["used"] = self._take_start(coarse, x)
+        coarse.release_factors()
+        done["seconds"] = round(time.perf_counter() - t0, 4)
+        return done
+
+    def _take_start(self, coarse: Model, x: PETSc.Vec) -> bool:
+        """Copy the solution of ``coarse`` (the same case, another multiplier space) into ``x``
+        (this model's layout), matching nodes by input id; False (``x`` unchanged) if a dof
+        has no counterpart (all processes)."""
+        mpi = self.comm.tompi4py()
+        la = coarse.local_solution()
+        ids_c, ids = coarse.mesh.node_ids, self.mesh.node_ids
+        order = np.argsort(ids_c)
+        at = order[np.clip(np.searchsorted(ids_c, ids, sorter=order), 0, len(ids_c) - 1)]
+        found = ids_c[at] == ids
+        lo, hi = x.getOwnershipRange()
+        xb = x.getArray().copy()
+        ok = True
+        for g, loc in ((self.layout.u_global, coarse.layout.u_local), (self.layout.h_global, coarse.layout.h_local)):
+            own = (g >= lo) & (g < hi)
+            src = np.where(found[:, None], loc[at], -1)
+            ok &= not (own & (src < 0)).any()
+            xb[g[own] - lo] = la[np.maximum(src, 0)[own]]
+        # the stable space's carrier values, by input id, from every process
+        lag_c = coarse.layout.lag_local
+        have = lag_c[:, 0] >= 0
+        parts = mpi.allgather((coarse.mesh.node_ids[have], la[lag_c[have]]))
+        gid = np.concatenate([p[0] for p in parts])
+        val = np.concatenate([p[1] for p in parts])
+        gid, first = np.unique(gid, return_index=True)
+        val = val[first]
+        g = self.layout.lag_global
+        own = (g[:, 0] >= lo) & (g[:, 0] < hi)
+        space = coarse.problem.space if coarse.problem is not None else None
+        if own.any():
+            if space is None or not np.isin(ids[own], space.ids).all():
+                ok = False
+            else:
+                rep = space.representative(ids[own])
+                k = np.clip(np.searchsorted(gid, rep), 0, len(gid) - 1)
+                ok &= bool((gid[k] == rep).all())
+                xb[g[own] - lo] = val[k]
+        ok = bool(mpi.allreduce(ok, op=MPI.LAND))
+        if ok:
+            x.setArray(xb)
+        return ok
 
     def run_warnings(self) -> list[str]:
         """Warnings of the solve (one line each)."""

@@ -113,6 +113,12 @@ OPTIONS = {o.name: o for o in (
            "the squared norm of the complementarity functions) or NONE (full steps, the bound "
            "mu |LAGS_C|, and the cycle guard: the method of earlier versions)",
            choices=("MERIT", "NONE"), default_doc="MERIT"),
+    Option("coarse_start", "choice",
+           "2-D, integration = NOEUD with the line search, algo_lagr = AUTO: where the sticking "
+           "start breaks Coulomb's law (the interface slides or opens), STABLE solves the case "
+           "in the stable multiplier space first and Newton starts from that answer (the answer "
+           "is the rich space's); NONE starts Newton from the sticking start",
+           choices=("STABLE", "NONE"), default_doc="STABLE"),
     Option("mesh_max_mb", "float",
            "largest amount of data (MB) a mesh file may declare (node coordinates, cells, "
            "fields, after decompression); larger files are refused before they are read",

@@ -27,6 +27,10 @@ Newton (``-xfc_friction_newton COULOMB``, the default):
 * the first Newton solve sticks wherever CONTACT_INIT puts contact (friction
   unbounded, statuses held: a linear problem, well posed for a body held by the
   interface alone), whatever SEUIL_INIT;
+* where that start breaks the law (2-D with the line search, the rich space), the model
+  replaces it by the solution in the stable space (:meth:`wants_coarse_start`,
+  :meth:`xfemcontact.model.Model.coarse_start`): Newton then starts near a smooth solution
+  instead of the sticking state, whose rough multipliers sent it wandering on floating bodies;
 * from there Newton (inner SNES) is a semi-smooth Newton on the whole law: at every
   Jacobian the contact statuses (the rules of :func:`nodal.contact_status`) and the
   friction statuses (:func:`nodal.friction_status`) are those of the iterate, and
@@ -1083,6 +1087,24 @@ class NodalContactProblem(InterfaceProblem):
         if back.any():
             self.extrapolated |= back
             self._functions()
+
+    def wants_coarse_start(self, x: PETSc.Vec) -> bool:
+        """2-D, Coulomb's law in Newton with the line search, the rich space (``algo_lagr``
+        AUTO): the sticking start ``x`` breaks the law at a dof in contact (tension, or a
+        tangential traction above mu |LAGS_C|), so the interface slides or opens, and Newton
+        had better start from the solution in the stable space (:meth:`Model.coarse_start`;
+        ``-xfc_coarse_start NONE``: from ``x``).  A start that satisfies the law (SSNV509:
+        everything sticks) is already the answer and is kept."""
+        if not (self.unbounded and self.line_search and self._nf == 1 and self.friction
+                and self.space.algo in ("AUTO", "VERSION3")
+                and options.get("coarse_start", "STABLE") == "STABLE"):
+            return False
+        ve, h, lam, T = self._values(x)
+        tol = self._lam_zero(lam)
+        on = self.slot & (self.chi == 1)
+        bound = self.mu * np.maximum(-lam, 0.0)
+        bad = on & ((lam > tol) | (np.abs(T) > bound * (1.0 + nodal.ROUNDOFF) + self.mu * tol))
+        return bool(self._mpi.allreduce(bool(bad.any()), op=MPI.LOR))
 
     def update_threshold(self, x: PETSc.Vec) -> BoolArray:
         """s <- LAGS_C at the dofs and dependent vertices (friction bounded from now on).

@@ -395,6 +395,12 @@ class InterfaceProblem:
         check; see :meth:`xfemcontact.contact.nodal_problem.NodalContactProblem.conditions`)."""
         return None
 
+    def wants_coarse_start(self, x: PETSc.Vec) -> bool:
+        """After the first threshold iteration: whether its answer ``x`` should be replaced by
+        the solution in a coarser multiplier space (:meth:`xfemcontact.model.Model.coarse_start`)
+        before Newton goes on (all processes)."""
+        return False
+
     def check_conditions(self, x: PETSc.Vec) -> None:
         """After a converged solve: a warning (:attr:`warnings`) if the law's conditions at the
         dofs of ``x`` are further than :data:`CONDITIONS_WARN` from holding (all processes)."""

@@ -52,7 +52,7 @@ that sticks everywhere converges at that step without another factorisation.
 from __future__ import annotations
 
 from contextlib import contextmanager
-from typing import TYPE_CHECKING, Any, Iterator, Protocol
+from typing import TYPE_CHECKING, Any, Callable, Iterator, Protocol
 
 import numpy as np
 
@@ -100,6 +100,7 @@ class LoopRecord:
         self.status_changes: list[int] = []   # changes after every Newton solve
         self.threshold_changes: list[float] = []
         self.warnings: list[str] = []
+        self.coarse: dict[str, Any] | None = None   # the coarse start's solve, if one ran
 
 
 class Solver(Protocol):
@@ -112,6 +113,8 @@ class Solver(Protocol):
     record: LoopRecord | None           # not None when the problem has loops
     linear_failure: dict[str, Any] | None
     linear_warnings: list[str]
+    #: the model's coarse start (:meth:`xfemcontact.model.Model.coarse_start`), None without
+    coarse_start: Callable[[PETSc.Vec], dict[str, Any] | None] | None
 
     def info(self) -> dict[str, Any]: ...
 
@@ -342,6 +345,8 @@ class FrictionLoop:
         while exact < max_it:
             k += 1
             if k > 1:
+                if k == 2 and self.solver.coarse_start is not None and problem.wants_coarse_start(x):
+                    self.record.coarse = self.solver.coarse_start(x)
                 switched_on = problem.update_threshold(x)
                 if problem.comm.tompi4py().allreduce(int(switched_on.sum())):
                     self._stick_predictor(switched_on, x)

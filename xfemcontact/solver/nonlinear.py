@@ -11,7 +11,7 @@ names, configured from the case's ``[contact]`` table and the options database.
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Callable, Protocol
 
 from xfemcontact._petsc import PETSc
 from xfemcontact.solver.coupled import CoupledJacobian
@@ -87,6 +87,8 @@ class NonlinearSolver:
                         if model.problem is not None else None)
         self.linear_failure: dict[str, Any] | None = None
         self.linear_warnings: list[str] = []
+        #: set by the model where a coarse start applies (2-D contact)
+        self.coarse_start: Callable[[PETSc.Vec], dict[str, Any] | None] | None = None
         self._info: dict[str, Any] | None = None
         problem = model.problem
         self.record = LoopRecord() if problem is not None and problem.loops else None
@@ -166,7 +168,9 @@ class NonlinearSolver:
         loops = self.record
         if loops is None:
             return {"newton": self.newton.getIterationNumber()}
-        return {"newton": int(sum(loops.newton)), "newton_per_solve": list(loops.newton),
+        coarse = loops.coarse or {}
+        return {"newton": int(sum(loops.newton)) + int(coarse.get("newton", 0)),
+                "coarse_start": coarse or None, "newton_per_solve": list(loops.newton),
                 "contact": list(loops.contact), "friction": int(loops.friction),
                 "stick_predictor_steps": int(sum(loops.newton_predictor)),
                 "line_search_retries": int(loops.line_search_retries),
