@@ -524,3 +524,19 @@ def test_changed_equations_take_a_newton_iteration(tmp_path):
     assert r["iterations"]["status_changes"][-2] > 0 and per_solve[-1] >= 1, r["iterations"]
     cond = r["conditions"]
     assert max(v for k, v in cond.items() if k not in ("pressure_scale_pa", "jump_scale_m")) <= 1e-13, cond
+
+
+@pytest.mark.slow
+def test_statuses_on_the_kink_within_newton_tolerance(tmp_path):
+    """low_friction (SSNV509, mu = 0.3) refined to 160 x 160 QUAD8: a few dofs sit on the
+    kink of the law (|T| = mu |LAGS_C|, slips of 5e-14 m) and their statuses switched stick
+    <-> slip at every iteration while the residual stayed at 3e-14 of the loads: exit 3 at
+    ITER_GLOB_MAXI.  A switch where both branches hold within Newton's tolerance no longer
+    keeps Newton going; from the sticking start every condition then holds to round-off."""
+    text = (CASES / "validation" / "low_friction.toml").read_text()
+    case = tmp_path / "low_friction_160.toml"
+    case.write_text(text.replace("nx = 20, ny = 20", "nx = 160, ny = 160"))
+    r = run_ok([case, "--no-plots", "-xfc_coarse_start", "NONE"], tmp_path / "o")
+    assert r["converged"] and r["iterations"]["newton"] <= 25
+    cond = r["conditions"]
+    assert max(v for k, v in cond.items() if not k.endswith(("_pa", "_m"))) <= 1e-12, cond

@@ -25,7 +25,7 @@ Newton (:class:`xfemcontact.model.Model`):
   tangent (None: none), applied by :mod:`xfemcontact.solver.operator`;
   ``add_matrices(J, K)``: ``J += K``; ``add_product(K, x, f, scale)``:
   ``f += scale K x``;
-* optional (the conditions at the dofs, in load steps): ``friction_settled(x)``
+* optional (the conditions at the dofs, in load steps): ``friction_settled(x, tol)``
   and ``residual_norm(F)`` (see :class:`xfemcontact.solver.newton.LoadRelativeTest`).
 
 Outer loops (:mod:`xfemcontact.solver.loops`; ``loops`` names the ones the

@@ -96,7 +96,7 @@ class LoadRelativeTest:
     the 2-norm (rows of other units weighed into forces).
     """
 
-    def __init__(self, load_norm: Callable[[], float], settled: Callable[[PETSc.Vec], bool] | None = None,
+    def __init__(self, load_norm: Callable[[], float], settled: Callable[[PETSc.Vec, float], bool] | None = None,
                  scaled: Callable[[PETSc.Vec], float] | None = None) -> None:
         self.load_norm = load_norm
         self.settled = settled
@@ -121,7 +121,8 @@ class LoadRelativeTest:
             converged = PETSc.SNES.ConvergedReason.CONVERGED_FNORM_RELATIVE
         if its == 0 and self.force_iteration:
             converged = None
-        if converged is not None and (self.settled is None or self.settled(snes.getSolution())):
+        if converged is not None and (self.settled is None or
+                                      self.settled(snes.getSolution(), max(rtol * ref, atol))):
             return converged
         if its >= max_it:
             return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
@@ -132,7 +133,7 @@ def create_snes(comm: PETSc.Comm, residual: Callable[[PETSc.SNES, PETSc.Vec, PET
                 jacobian: Callable[[PETSc.SNES, PETSc.Vec, PETSc.Mat, PETSc.Mat], None],
                 J: PETSc.Mat, f: PETSc.Vec, resi_glob_rela: float, iter_glob_maxi: int,
                 load_norm: Callable[[], float], prefix: str = "",
-                settled: Callable[[PETSc.Vec], bool] | None = None,
+                settled: Callable[[PETSc.Vec, float], bool] | None = None,
                 scaled: Callable[[PETSc.Vec], float] | None = None) -> tuple[PETSc.SNES, LoadRelativeTest]:
     """A Newton SNES on our callbacks with code_aster's convergence criterion.
 
