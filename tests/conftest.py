@@ -92,6 +92,20 @@ def case_dir(tmp_path):
     return tmp_path
 
 
+def inclusion_case(directory, cell="QUAD8", n=20, radius=2.3, algo=None):
+    """A floating inclusion of bench/inclusion_family.py (held by contact and friction alone)
+    on n x n ``cell``, radius ``radius`` (m), multiplier space ``algo`` (None: the default),
+    written into ``directory``; returns its path."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("inclusion_family", ROOT / "bench" / "inclusion_family.py")
+    family = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(family)
+    case = pathlib.Path(directory) / f"inclusion_{cell}_{n}_{radius}_{algo}.toml"
+    case.write_text(family.variant(family.TEMPLATE.read_text(), cell, n, radius, algo))
+    return case
+
+
 def with_contact_keys(path, directory, **keys):
     """A copy of the case ``path`` in ``directory`` with ``[contact]`` keys set (values as
     TOML text, e.g. ``integration='"GAUSS"'``); mesh files stay where they were."""

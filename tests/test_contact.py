@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from conftest import CASES, ROOT, gauss, results, run_cli, with_contact_keys
+from conftest import CASES, ROOT, gauss, inclusion_case, results, run_cli, with_contact_keys
 
 DATA_CASES = ROOT / "tests" / "data" / "cases"
 
@@ -441,16 +441,9 @@ def test_multipliers_near_the_floor_of_their_space(name):
     assert err_c < 4.0 * best["LAGS_C"] and err_f < 4.0 * best["LAGS_F1"]
 
 
-def _inclusion(tmp_path, cell="QUAD8", n=20, radius=2.3, algo="STABLE"):
-    """A floating inclusion of bench/inclusion_family.py (held by contact and friction alone)."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("inclusion_family", ROOT / "bench" / "inclusion_family.py")
-    family = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(family)
-    case = tmp_path / f"inclusion_{cell}_{n}_{radius}_{algo}.toml"
-    case.write_text(family.variant(family.TEMPLATE.read_text(), cell, n, radius, algo))
-    return case
+def _inclusion(tmp_path, algo="STABLE"):
+    """The 20 x 20 QUAD8 inclusion (R = 2.3 m) of bench/inclusion_family.py."""
+    return inclusion_case(tmp_path, algo=algo)
 
 
 def test_stable_space_is_stars_of_crossed_edges(tmp_path):

@@ -13,7 +13,7 @@ import sys
 import numpy as np
 import pytest
 
-from conftest import CASES, MESHES, ROOT, results, run_cli
+from conftest import CASES, MESHES, ROOT, inclusion_case, results, run_cli
 from xfemcontact._petsc import PETSc
 
 SLIP = CASES / "validation" / "slip_straight.toml"
@@ -278,11 +278,7 @@ def test_a_forced_answer_is_flagged(tmp_path):
     no solution: the floating inclusion of bench/inclusion_family.py on 24 x 24 TRIA6 with
     R = 2.1 m leaves a dof in tension (0.86 of the pressure scale), and the run says so in a
     warning of its own, on stderr and in results.json."""
-    spec = importlib.util.spec_from_file_location("inclusion_family", ROOT / "bench" / "inclusion_family.py")
-    family = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(family)
-    case = tmp_path / "inclusion.toml"
-    case.write_text(family.variant(family.TEMPLATE.read_text(), "TRIA6", 24, 2.1))
+    case = inclusion_case(tmp_path, "TRIA6", 24, 2.1)
     p = run_cli(["run", case, "-o", tmp_path / "out"])
     r = results(tmp_path / "out")
     assert r["converged"] and any("CONTACT3_86" in w for w in r["warnings"])

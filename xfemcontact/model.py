@@ -15,6 +15,7 @@ in :data:`xfemcontact.timing.TIMINGS`.
 """
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import TYPE_CHECKING, Any
 
@@ -348,8 +349,6 @@ class Model:
         node ids (a rich-space carrier takes the value of its star in the stable space).
         Returns what it did (results.json ``iterations.coarse_start``); ``x`` is left as it was
         if the coarse solve did not converge."""
-        import dataclasses
-
         t0 = time.perf_counter()
         case = dataclasses.replace(self.case, contact=dataclasses.replace(self.case.contact, algo_lagr="STABLE"))
         coarse = Model(case)
