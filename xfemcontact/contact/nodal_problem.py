@@ -318,7 +318,9 @@ class NodalContactProblem(InterfaceProblem):
         #: pressures (:meth:`_augmented_pressure`); ``s`` stays LAGS_C's, for the loops and results
         self._newton_s: FloatArray | None = None
         self._set_rho_T(abs(s0) if s0 else None)
-        self._functions()
+        self._ties_positive = False        # gradient ties switched for D_a > 0 (_statuses_in_play)
+        self._start_broken: bool | None = None     # the sticking start breaks the law (wants_coarse_start)
+        self._positive_weights()
         g = self.indices[:, self._nh:self._nh + self._m]
         lo, hi = self._y.getOwnershipRange()
         first = np.zeros(g.shape, bool)
@@ -435,6 +437,54 @@ class NodalContactProblem(InterfaceProblem):
         self._dep = dep
         self._dep_index = np.where(dep, np.searchsorted(ids, np.where(dep, vid, ids[0] if len(ids) else 0)), -1)
 
+    def _positive_weights(self, ties: bool = False) -> bool:
+        """Make every dof's lumped weight D_a positive: the dependent vertices whose negative
+        weights give a dof D_a <= 0 take their convex combination for good
+        (``self.held_convex``), until no such dof is left; weak vertices always, gradient ties
+        with ``ties`` (see below).  Sets the functions (:meth:`_functions`); returns whether
+        it switched any vertex.
+
+        The equilibrium pairs LAGS_C_a with the weighted gap G_a = int phi_a [u].n, and the
+        conditions hold on the mean gap g_a = G_a / D_a: with D_a < 0 they ask for G_a <= 0
+        with LAGS_C_a <= 0, the conditions of no minimisation problem, and the status loop
+        cycled between a dof in tension and the same dof interpenetrating (measured on the
+        floating inclusions of bench/inclusion_family.py: TRIA6 24 x 24, R = 2.1 m, D = -3.7e-3
+        and -1.4e-3 where the median is 0.26, from weak vertices: 7 forced status loops and a
+        dof in tension at 0.46 of the pressure scale; QUAD8 40 x 40, R = 2.45 m, -3.4e-2 from
+        gradient ties: 4 forced loops).  The convex combination has no negative weight, so
+        such a vertex adds to D_a; it keeps constants exact, linear fields where the vertex lies
+        in its roots' hull.  A gradient tie's convex form is a merge, which costs the exactness
+        of linear fields along a flat stretch (cases/validation/flat_arc.toml: LAGS_C 1e-8 ->
+        1.2e-6; the arc sweep of tests/test_stability.py 1.5e-5 for its 1e-5): ties are switched
+        only once statuses are in play (:meth:`_statuses_in_play`), where a sticking case never
+        goes."""
+        if not hasattr(self, "held_convex"):
+            self.held_convex = np.zeros(self.n_dep, bool)
+        tied = np.zeros(self._dep.shape, bool) if ties else np.isin(self.space.topo.verts, self.space.gradient_tied)
+        switched = False
+        while True:
+            self._functions()
+            if not self.n_dep:
+                return switched
+            bad = self.slot & (self._D <= 0.0)
+            rows = self._dep & ((self.space.T < NEGATIVE) & bad[:, None, :]).any(axis=2) & ~tied
+            mark = np.zeros(self.n_dep, bool)
+            mark[self._dep_index[rows]] = True
+            mark = np.logical_or.reduce(self._mpi.allgather(mark)) & ~self.held_convex
+            if not mark.any():
+                return switched
+            switched = True
+            self.held_convex |= mark
+            self.extrapolated &= ~mark
+
+    def _statuses_in_play(self) -> None:
+        """Statuses are about to change (a status iteration changed one, or the sticking
+        start breaks Coulomb's law): the gradient ties that give a dof D_a <= 0 take their
+        merges too (:meth:`_positive_weights`), once."""
+        if not self._ties_positive:
+            self._ties_positive = True
+            self._positive_weights(ties=True)
+
     def _functions(self):
         """The vertex map ``T (k, nv, m)`` of the current modes of the dependent vertices,
         and the weighted gap and slip operators ``(k, m, 2nn)`` and weights ``(k, m)``
@@ -496,9 +546,9 @@ class NodalContactProblem(InterfaceProblem):
 
     def _mean_divisor(self):
         """The lumped weights D_a ``(k, m)`` that turn the weighted gap and slip into
-        mean ones (1 on empty slots).  D_a can be negative where extrapolated weak
-        vertices give phi_a negative parts: the mean keeps its sign (a constant jump
-        has that constant as mean at every dof), which the status rules need."""
+        mean ones (1 on empty slots).  Positive wherever statuses are in play
+        (:meth:`_positive_weights`); a sticking case may keep a gradient tie's negative
+        D_a, whose mean keeps its sign (a constant jump has that constant as mean)."""
         return np.where(self.slot & (self._D != 0), self._D, 1.0)
 
     def _max(self, a):
@@ -1035,6 +1085,8 @@ class NodalContactProblem(InterfaceProblem):
         self.slip = np.where(self._tile(changed), 0.0, slip)       # a dof entering contact starts sticking
         self.chi = new
         count = self._count(changed | held)
+        if count:
+            self._statuses_in_play()
         switched = self._admissible_vertices(lam_eq, T_eq, tol_lam)
         if switched:
             self._functions()
@@ -1104,7 +1156,7 @@ class NodalContactProblem(InterfaceProblem):
         """At a threshold update: dependent vertices switched to their convex
         combination go back to the extrapolation where it is admissible now, so that
         a switch made far from the solution does not outlive it."""
-        back = ~self.extrapolated & ~self._inadmissible(*self._equilibrium_tractions(lam, T),
+        back = ~self.extrapolated & ~self.held_convex & ~self._inadmissible(*self._equilibrium_tractions(lam, T),
                                                         self._lam_zero(lam))
         if back.any():
             self.extrapolated |= back
@@ -1117,20 +1169,29 @@ class NodalContactProblem(InterfaceProblem):
         had better start from the solution in the stable space (:meth:`Model.coarse_start`;
         ``-xfc_coarse_start NONE``: from ``x``).  A start that satisfies the law (SSNV509:
         everything sticks) is already the answer and is kept."""
-        if not (self.unbounded and self.line_search and self._nf == 1 and self.friction
-                and self.space.algo in ("AUTO", "VERSION3")
-                and options.get("coarse_start", "STABLE") == "STABLE"):
+        if not self.unbounded:
             return False
+        self._start_broken = self._breaks_law(x)
+        return (self._start_broken and self.line_search and self._nf == 1 and self.friction
+                and self.space.algo in ("AUTO", "VERSION3")
+                and options.get("coarse_start", "STABLE") == "STABLE")
+
+    def _breaks_law(self, x: PETSc.Vec) -> bool:
+        """Whether ``x`` breaks the law at a dof in contact: tension, or a tangential traction
+        above mu |LAGS_C| (all processes)."""
         ve, h, lam, T = self._values(x)
         tol = self._lam_zero(lam)
         on = self.slot & (self.chi == 1)
-        bound = self.mu * np.maximum(-lam, 0.0)
-        bad = on & ((lam > tol) | (np.abs(T) > bound * (1.0 + nodal.ROUNDOFF) + self.mu * tol))
+        bound = self.mu * np.maximum(-lam, 0.0) if self.friction else np.full(lam.shape, np.inf)
+        Tn = np.abs(T) if self._nf == 1 else np.sqrt((self._split(T) ** 2).sum(axis=-1))
+        bad = on & ((lam > tol) | (Tn > bound * (1.0 + nodal.ROUNDOFF) + self.mu * tol))
         return bool(self._mpi.allreduce(bool(bad.any()), op=MPI.LOR))
 
     def update_threshold(self, x: PETSc.Vec) -> BoolArray:
         """s <- LAGS_C at the dofs and dependent vertices (friction bounded from now on).
         Returns an empty mask: no stick predictor is needed."""
+        if self.unbounded and (self._start_broken if self._start_broken is not None else self._breaks_law(x)):
+            self._statuses_in_play()             # the sticking start breaks the law
         ve, h, lam, T = self._values(x)
         self._seen_contact.clear()
         self._seen_slip.clear()
@@ -1426,6 +1487,7 @@ class NodalContactProblem(InterfaceProblem):
                     "coef_cont_given": self._given[0], "coef_frot_given": self._given[1],
                     "cycle_guards": self.guards, "coulomb_rearms": self.rearms,
                     "convex_dependent_vertices": int((~self.extrapolated).sum()),
+                    "convex_for_weight": int(self.held_convex.sum()),
                     "coef_cont": self.rho_n, "rho_T": self.rho_T, "h": self._h})
         return out
 

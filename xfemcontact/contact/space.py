@@ -215,6 +215,8 @@ class MultiplierSpace:
     algo: str = "AUTO"
     #: [(a, b, packet eigenvalue)], global ids
     tie_edges: list[tuple[int, int, float]] = field(default_factory=list)
+    #: global ids of the vertices given by gradient ties (step 3), sorted
+    gradient_tied: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def representative(self, gids: IntArray) -> IntArray:
         """Representative global ids of carriers ``gids`` (any shape)."""
@@ -342,8 +344,8 @@ def _kernel_carriers(space: MultiplierSpace, mesh: LocalMesh, lin_at_points: Flo
     a Gmsh quadrangle mesh.  Merging those ties instead cost the SSNV509 a arc
     sweep its 1e-5 on LAGS_C (1.5e-5) and the nearly flat arc its exactness (1e-8
     -> 1.2e-6), for 120 instead of 212 Newton iterations on the one sliding case
-    concerned: they are kept, and the mean gap and slip of such a dof keep the sign
-    of its weight.)"""
+    concerned: they are kept, and merged only where statuses are in play:
+    :meth:`xfemcontact.contact.nodal_problem.NodalContactProblem._positive_weights`.)"""
     G = _gram(space, mesh, lin_at_points, weights)
     root = np.searchsorted(space.ids, space.rep)
     ncomp, comp = connected_components(G != 0, directed=False)
@@ -415,6 +417,7 @@ def _gradient_ties(space: MultiplierSpace, topo: SegmentTopology, nv: int, ids: 
     new = MultiplierSpace(carriers, carriers.copy(), topo, carriers_of, T, T_convex, algo=space.algo,
                           n_weak=space.n_weak, n_packets=space.n_packets, n_ties=space.n_ties,
                           smallest=space.smallest)
+    new.gradient_tied = np.array(sorted(tied), dtype=np.int64)
     for a, b, _ in space.tie_edges:                 # the ties that stay merges
         if a not in tied and b not in tied:
             new.rep[new.rep == max(a, b)] = min(a, b)
