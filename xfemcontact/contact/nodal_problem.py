@@ -460,22 +460,22 @@ class NodalContactProblem(InterfaceProblem):
         goes."""
         if not hasattr(self, "held_convex"):
             self.held_convex = np.zeros(self.n_dep, bool)
+            self._functions()
         tied = np.zeros(self._dep.shape, bool) if ties else np.isin(self.space.topo.verts, self.space.gradient_tied)
         switched = False
-        while True:
-            self._functions()
-            if not self.n_dep:
-                return switched
+        while self.n_dep:
             bad = self.slot & (self._D <= 0.0)
             rows = self._dep & ((self.space.T < NEGATIVE) & bad[:, None, :]).any(axis=2) & ~tied
             mark = np.zeros(self.n_dep, bool)
             mark[self._dep_index[rows]] = True
             mark = np.logical_or.reduce(self._mpi.allgather(mark)) & ~self.held_convex
             if not mark.any():
-                return switched
+                break
             switched = True
             self.held_convex |= mark
             self.extrapolated &= ~mark
+            self._functions()
+        return switched
 
     def _statuses_in_play(self) -> None:
         """Statuses are about to change (a status iteration changed one, or the sticking
