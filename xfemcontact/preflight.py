@@ -752,8 +752,11 @@ def interface_resolution(case: Case, raw: RawMesh, phi: FloatArray | None) -> di
     used = np.unique(cells)
     values = np.zeros(len(x))
     values[used] = itf.level_set(**coordinates(x[used]))
-    scale = float(np.ldexp(1.0, -np.frexp(np.abs(values).max())[1])) if values.any() else 1.0
-    values *= scale                    # exact (a power of two): no overflow, no underflow
+    # exact (a power of two): no overflow, no underflow; the exponent bounded so that a
+    # formula whose values are all subnormal (a fuzzed one: 1e-320) is not scaled to inf
+    exponent = int(np.clip(np.frexp(np.abs(values).max())[1], -1000, 1000)) if values.any() else 0
+    scale = float(np.ldexp(1.0, -exponent))
+    values *= scale
 
     formula = itf.level_set
 
