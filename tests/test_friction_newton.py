@@ -588,15 +588,13 @@ def test_statuses_on_the_kink_within_newton_tolerance(tmp_path):
     ITER_GLOB_MAXI.  A switch where both branches hold within Newton's tolerance no longer
     keeps Newton going; from the sticking start every condition then holds to round-off.
     (One dof of this mesh has a negative lumped weight from a gradient tie, -0.026 for a
-    median of 0.035, merged once statuses are in play (nodal_problem._positive_weights): 76
-    Newton iterations, 28 in one solve, where 22 were enough with it; with the coarse start,
-    the default, 37 against 35.)"""
+    median of 0.035; it sticks at the bottom of the arc, so its tie is not merged
+    (nodal_problem._statuses_in_play): merged, it cost 22 -> 76 Newton iterations.)"""
     text = (CASES / "validation" / "low_friction.toml").read_text()
     case = tmp_path / "low_friction_160.toml"
-    text = text.replace("nx = 20, ny = 20", "nx = 160, ny = 160")
-    case.write_text(text.replace("[newton]\n", "[newton]\niter_glob_maxi = 40\n", 1))
+    case.write_text(text.replace("nx = 20, ny = 20", "nx = 160, ny = 160"))
     r = run_ok([case, "--no-plots", "-xfc_coarse_start", "NONE"], tmp_path / "o")
-    assert r["converged"] and r["iterations"]["newton"] <= 80
-    assert r["multipliers"]["convex_for_weight"] == 1
+    assert r["converged"] and r["iterations"]["newton"] <= 25
+    assert r["multipliers"]["convex_for_weight"] == 0
     cond = r["conditions"]
     assert max(v for k, v in cond.items() if not k.endswith(("_pa", "_m"))) <= 1e-12, cond

@@ -318,8 +318,8 @@ class NodalContactProblem(InterfaceProblem):
         #: pressures (:meth:`_augmented_pressure`); ``s`` stays LAGS_C's, for the loops and results
         self._newton_s: FloatArray | None = None
         self._set_rho_T(abs(s0) if s0 else None)
-        self._ties_positive = False        # gradient ties switched for D_a > 0 (_statuses_in_play)
-        self._start_broken: bool | None = None     # the sticking start breaks the law (wants_coarse_start)
+        #: the dofs where the sticking start breaks the law (:meth:`wants_coarse_start`)
+        self._start_broken: BoolArray | None = None
         self._positive_weights()
         g = self.indices[:, self._nh:self._nh + self._m]
         lo, hi = self._y.getOwnershipRange()
@@ -437,11 +437,11 @@ class NodalContactProblem(InterfaceProblem):
         self._dep = dep
         self._dep_index = np.where(dep, np.searchsorted(ids, np.where(dep, vid, ids[0] if len(ids) else 0)), -1)
 
-    def _positive_weights(self, ties: bool = False) -> bool:
+    def _positive_weights(self, ties: bool = False, only: BoolArray | None = None) -> bool:
         """Make every dof's lumped weight D_a positive: the dependent vertices whose negative
         weights give a dof D_a <= 0 take their convex combination for good
         (``self.held_convex``), until no such dof is left; weak vertices always, gradient ties
-        with ``ties`` (see below).  Sets the functions (:meth:`_functions`); returns whether
+        with ``ties`` (see below), for the dofs of ``only (k, m)`` if given.  Sets the functions (:meth:`_functions`); returns whether
         it switched any vertex.
 
         The equilibrium pairs LAGS_C_a with the weighted gap G_a = int phi_a [u].n, and the
@@ -455,16 +455,16 @@ class NodalContactProblem(InterfaceProblem):
         such a vertex adds to D_a; it keeps constants exact, linear fields where the vertex lies
         in its roots' hull.  A gradient tie's convex form is a merge, which costs the exactness
         of linear fields along a flat stretch (cases/validation/flat_arc.toml: LAGS_C 1e-8 ->
-        1.2e-6; the arc sweep of tests/test_stability.py 1.5e-5 for its 1e-5): ties are switched
-        only once statuses are in play (:meth:`_statuses_in_play`), where a sticking case never
-        goes."""
+        1.2e-6; the arc sweep of tests/test_stability.py 1.5e-5 for its 1e-5): a tie is switched
+        only for a dof whose statuses are in play (:meth:`_statuses_in_play`), which a sticking
+        dof never is."""
         if not hasattr(self, "held_convex"):
             self.held_convex = np.zeros(self.n_dep, bool)
             self._functions()
         tied = np.zeros(self._dep.shape, bool) if ties else np.isin(self.space.topo.verts, self.space.gradient_tied)
         switched = False
         while self.n_dep:
-            bad = self.slot & (self._D <= 0.0)
+            bad = self.slot & (self._D <= 0.0) & (True if only is None else only)
             rows = self._dep & ((self.space.T < NEGATIVE) & bad[:, None, :]).any(axis=2) & ~tied
             mark = np.zeros(self.n_dep, bool)
             mark[self._dep_index[rows]] = True
@@ -477,13 +477,15 @@ class NodalContactProblem(InterfaceProblem):
             self._functions()
         return switched
 
-    def _statuses_in_play(self) -> None:
-        """Statuses are about to change (a status iteration changed one, or the sticking
-        start breaks Coulomb's law): the gradient ties that give a dof D_a <= 0 take their
-        merges too (:meth:`_positive_weights`), once."""
-        if not self._ties_positive:
-            self._ties_positive = True
-            self._positive_weights(ties=True)
+    def _statuses_in_play(self, where: BoolArray) -> None:
+        """The dofs of ``where (k, m)`` are in play (the sticking start breaks the law there,
+        or a status iteration changed their status): the gradient ties that give one of them
+        D_a <= 0 take their merges too (:meth:`_positive_weights`).  Measured: the inclusions
+        of bench/inclusion_family.py whose dofs of negative weight cycled break the law there
+        at the sticking start (tension, or |T| above the bound); the one dof of negative weight
+        of low_friction on 160 x 160 sticks at the bottom of the arc, and its tie, merged,
+        cost 22 -> 76 Newton iterations from the sticking start."""
+        self._positive_weights(ties=True, only=where)
 
     def _functions(self):
         """The vertex map ``T (k, nv, m)`` of the current modes of the dependent vertices,
@@ -1086,7 +1088,7 @@ class NodalContactProblem(InterfaceProblem):
         self.chi = new
         count = self._count(changed | held)
         if count:
-            self._statuses_in_play()
+            self._statuses_in_play(changed & self.slot)
         switched = self._admissible_vertices(lam_eq, T_eq, tol_lam)
         if switched:
             self._functions()
@@ -1171,27 +1173,27 @@ class NodalContactProblem(InterfaceProblem):
         everything sticks) is already the answer and is kept."""
         if not self.unbounded:
             return False
-        self._start_broken = self._breaks_law(x)
-        return (self._start_broken and self.line_search and self._nf == 1 and self.friction
+        self._start_broken = self._broken_at(x)
+        broken = bool(self._mpi.allreduce(bool(self._start_broken.any()), op=MPI.LOR))
+        return (broken and self.line_search and self._nf == 1 and self.friction
                 and self.space.algo in ("AUTO", "VERSION3")
                 and options.get("coarse_start", "STABLE") == "STABLE")
 
-    def _breaks_law(self, x: PETSc.Vec) -> bool:
-        """Whether ``x`` breaks the law at a dof in contact: tension, or a tangential traction
-        above mu |LAGS_C| (all processes)."""
+    def _broken_at(self, x: PETSc.Vec) -> BoolArray:
+        """``(k, m)``: the dofs in contact where ``x`` breaks the law: tension, or a tangential
+        traction above mu |LAGS_C| (the same on every process: assembled values)."""
         ve, h, lam, T = self._values(x)
         tol = self._lam_zero(lam)
         on = self.slot & (self.chi == 1)
         bound = self.mu * np.maximum(-lam, 0.0) if self.friction else np.full(lam.shape, np.inf)
         Tn = np.abs(T) if self._nf == 1 else np.sqrt((self._split(T) ** 2).sum(axis=-1))
-        bad = on & ((lam > tol) | (Tn > bound * (1.0 + nodal.ROUNDOFF) + self.mu * tol))
-        return bool(self._mpi.allreduce(bool(bad.any()), op=MPI.LOR))
+        return on & ((lam > tol) | (Tn > bound * (1.0 + nodal.ROUNDOFF) + self.mu * tol))
 
     def update_threshold(self, x: PETSc.Vec) -> BoolArray:
         """s <- LAGS_C at the dofs and dependent vertices (friction bounded from now on).
         Returns an empty mask: no stick predictor is needed."""
-        if self.unbounded and (self._start_broken if self._start_broken is not None else self._breaks_law(x)):
-            self._statuses_in_play()             # the sticking start breaks the law
+        if self.unbounded:                          # where the sticking start breaks the law
+            self._statuses_in_play(self._start_broken if self._start_broken is not None else self._broken_at(x))
         ve, h, lam, T = self._values(x)
         self._seen_contact.clear()
         self._seen_slip.clear()
