@@ -589,7 +589,7 @@ def test_statuses_on_the_kink_within_newton_tolerance(tmp_path):
     keeps Newton going; from the sticking start every condition then holds to round-off.
     (One dof of this mesh has a negative lumped weight from a gradient tie, -0.026 for a
     median of 0.035; it sticks at the bottom of the arc, so its tie is not merged
-    (nodal_problem._statuses_in_play): merged, it cost 22 -> 76 Newton iterations.)"""
+    (nodal_problem._positive_weights): merged, it cost 22 -> 76 Newton iterations.)"""
     text = (CASES / "validation" / "low_friction.toml").read_text()
     case = tmp_path / "low_friction_160.toml"
     case.write_text(text.replace("nx = 20, ny = 20", "nx = 160, ny = 160"))

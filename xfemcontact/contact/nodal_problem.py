@@ -320,6 +320,8 @@ class NodalContactProblem(InterfaceProblem):
         self._set_rho_T(abs(s0) if s0 else None)
         #: the dofs where the sticking start breaks the law (:meth:`wants_coarse_start`)
         self._start_broken: BoolArray | None = None
+        self.held_convex = np.zeros(self.n_dep, bool)   # dependent vertices convex for D_a > 0
+        self._functions()
         self._positive_weights()
         g = self.indices[:, self._nh:self._nh + self._m]
         lo, hi = self._y.getOwnershipRange()
@@ -437,12 +439,13 @@ class NodalContactProblem(InterfaceProblem):
         self._dep = dep
         self._dep_index = np.where(dep, np.searchsorted(ids, np.where(dep, vid, ids[0] if len(ids) else 0)), -1)
 
-    def _positive_weights(self, ties: bool = False, only: BoolArray | None = None) -> bool:
-        """Make every dof's lumped weight D_a positive: the dependent vertices whose negative
+    def _positive_weights(self, in_play: BoolArray | None = None) -> None:
+        """Make the dofs' lumped weights D_a positive: the dependent vertices whose negative
         weights give a dof D_a <= 0 take their convex combination for good
-        (``self.held_convex``), until no such dof is left; weak vertices always, gradient ties
-        with ``ties`` (see below), for the dofs of ``only (k, m)`` if given.  Sets the functions (:meth:`_functions`); returns whether
-        it switched any vertex.
+        (``self.held_convex``), until no such dof is left.  ``in_play`` None (set-up): weak
+        vertices, every dof; a mask ``(k, m)`` of the dofs whose statuses are in play (the
+        sticking start breaks the law there, or a status iteration changed their contact
+        status): gradient ties too, for those dofs.
 
         The equilibrium pairs LAGS_C_a with the weighted gap G_a = int phi_a [u].n, and the
         conditions hold on the mean gap g_a = G_a / D_a: with D_a < 0 they ask for G_a <= 0
@@ -455,37 +458,30 @@ class NodalContactProblem(InterfaceProblem):
         such a vertex adds to D_a; it keeps constants exact, linear fields where the vertex lies
         in its roots' hull.  A gradient tie's convex form is a merge, which costs the exactness
         of linear fields along a flat stretch (cases/validation/flat_arc.toml: LAGS_C 1e-8 ->
-        1.2e-6; the arc sweep of tests/test_stability.py 1.5e-5 for its 1e-5): a tie is switched
-        only for a dof whose statuses are in play (:meth:`_statuses_in_play`), which a sticking
-        dof never is."""
-        if not hasattr(self, "held_convex"):
-            self.held_convex = np.zeros(self.n_dep, bool)
-            self._functions()
-        tied = np.zeros(self._dep.shape, bool) if ties else np.isin(self.space.topo.verts, self.space.gradient_tied)
-        switched = False
-        while self.n_dep:
-            bad = self.slot & (self._D <= 0.0) & (True if only is None else only)
-            rows = self._dep & ((self.space.T < NEGATIVE) & bad[:, None, :]).any(axis=2) & ~tied
+        1.2e-6; the arc sweep of tests/test_stability.py 1.5e-5 for its 1e-5), so it is switched
+        only for a dof in play, which a sticking dof never is.  Measured: the inclusions whose
+        dofs of negative weight cycled break the law there at the sticking start (tension, or
+        |T| above the bound); the one dof of negative weight of low_friction on 160 x 160
+        sticks at the bottom of the arc, and its tie, merged, cost 22 -> 76 Newton iterations
+        from the sticking start."""
+        if not self.n_dep:
+            return
+        if in_play is None:
+            kept = np.isin(self.space.topo.verts, self.space.gradient_tied)      # (k, nv)
+            bad_dofs = self.slot
+        else:
+            kept, bad_dofs = np.zeros(self._dep.shape, bool), self.slot & in_play
+        while True:
+            bad = bad_dofs & (self._D <= 0.0)
+            rows = self._dep & ((self.space.T < NEGATIVE) & bad[:, None, :]).any(axis=2) & ~kept
             mark = np.zeros(self.n_dep, bool)
             mark[self._dep_index[rows]] = True
             mark = np.logical_or.reduce(self._mpi.allgather(mark)) & ~self.held_convex
             if not mark.any():
-                break
-            switched = True
+                return
             self.held_convex |= mark
             self.extrapolated &= ~mark
             self._functions()
-        return switched
-
-    def _statuses_in_play(self, where: BoolArray) -> None:
-        """The dofs of ``where (k, m)`` are in play (the sticking start breaks the law there,
-        or a status iteration changed their status): the gradient ties that give one of them
-        D_a <= 0 take their merges too (:meth:`_positive_weights`).  Measured: the inclusions
-        of bench/inclusion_family.py whose dofs of negative weight cycled break the law there
-        at the sticking start (tension, or |T| above the bound); the one dof of negative weight
-        of low_friction on 160 x 160 sticks at the bottom of the arc, and its tie, merged,
-        cost 22 -> 76 Newton iterations from the sticking start."""
-        self._positive_weights(ties=True, only=where)
 
     def _functions(self):
         """The vertex map ``T (k, nv, m)`` of the current modes of the dependent vertices,
@@ -1088,7 +1084,7 @@ class NodalContactProblem(InterfaceProblem):
         self.chi = new
         count = self._count(changed | held)
         if count:
-            self._statuses_in_play(changed & self.slot)
+            self._positive_weights(in_play=changed)
         switched = self._admissible_vertices(lam_eq, T_eq, tol_lam)
         if switched:
             self._functions()
@@ -1193,7 +1189,9 @@ class NodalContactProblem(InterfaceProblem):
         """s <- LAGS_C at the dofs and dependent vertices (friction bounded from now on).
         Returns an empty mask: no stick predictor is needed."""
         if self.unbounded:                          # where the sticking start breaks the law
-            self._statuses_in_play(self._start_broken if self._start_broken is not None else self._broken_at(x))
+            broken = self._start_broken if self._start_broken is not None else self._broken_at(x)
+            self._start_broken = None
+            self._positive_weights(in_play=broken)
         ve, h, lam, T = self._values(x)
         self._seen_contact.clear()
         self._seen_slip.clear()
