@@ -16,8 +16,12 @@ Printed, per run: converged, Newton iterations over the run, threshold iteration
 forced status loops (CONTACT3_86), the hand-overs of a stalled line search to the threshold
 fixed point (``guards``), the largest condition violation at the dofs relative to the
 scales (results.json ``conditions``) and the smallest point gap of interface.csv (m; the
-displacements are about 1e-3 m), which refinement shows to be a discretisation error:
-``--n 20 40 80 160 --radius 2.3``.  Written to ``bench/results/<name>.md`` and ``.json``.
+displacements are about 1e-3 m).  With several mesh sizes it adds the point values between
+the dofs (smallest gap at open and at closed points, largest slip at sticking points), worst
+over the radii and ``--shift`` positions of the centre per size, and the rate at which the
+worst gap falls: ``--n 20 28 40 56 80 113 160 --radius 2.3 --shift 0 0.25 0.5 0.75 --name
+inclusion_point_floor`` (56 runs, about 5 min).  Written to ``bench/results/<name>.md`` and
+``.json``.
 
 These are the hardest cases we know for the semi-smooth Newton: the inclusion's rotation is
 held by friction alone, so a Newton iterate where most contact dofs slip has a nearly singular
@@ -34,15 +38,24 @@ import subprocess
 import sys
 import time
 
+import numpy as np
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 TEMPLATE = ROOT / "cases" / "campaign" / "curved_inclusion_mixed_quad8.toml"
 CONDITIONS = ("tension", "interpenetration", "contact_complementarity", "friction_excess",
               "friction_complementarity", "threshold")
 
 
-def variant(text: str, cell: str, n: int, radius: float, algo: str | None = None) -> str:
-    """The template with an n x n mesh of ``cell``, the inclusion's radius (m) and the
-    multiplier space ``algo`` (None: the default)."""
+def variant(text: str, cell: str, n: int, radius: float, algo: str | None = None,
+            shift: float = 0.0) -> str:
+    """The template with an n x n mesh of ``cell``, the inclusion's radius (m), its centre
+    moved by ``shift`` cells along x and y (5 m + shift * 10 m / n each) and the multiplier
+    space ``algo`` (None: the default)."""
+    centre = 5.0 + shift * 10.0 / n
+    text, k5 = re.subn(r"(?m)^xc = 5\.0$", f"xc = {centre!r}", text)
+    text, k6 = re.subn(r"(?m)^yc = 5\.0$", f"yc = {centre!r}", text)
+    if (k5, k6) != (1, 1):
+        raise SystemExit(f"error: {TEMPLATE}: the template changed; update bench/inclusion_family.py")
     out, k = re.subn(r"nx = \d+, ny = \d+", f"nx = {n}, ny = {n}", text)
     out, k2 = re.subn(r'cell = "QUAD8"', f'cell = "{cell}"', out)
     out, k3 = re.subn(r"- 2\.3\*\*2", f"- {radius}**2", out)
@@ -71,14 +84,64 @@ def run(job: dict, options: list[str]) -> dict:
     cond = r.get("conditions") or {}
     try:
         with open(job["out"] / "interface.csv") as f:
-            row["min_gap"] = min(float(p["gap"]) for p in csv.DictReader(f))
+            row.update(point_values(list(csv.DictReader(f))))
     except (OSError, ValueError, KeyError):
         row["min_gap"] = None
     row.update(converged=bool(r.get("converged")), newton=it.get("newton"), threshold=it.get("friction"),
                forced=sum("CONTACT3_86" in w for w in r.get("warnings", [])),
                guards=(r.get("multipliers") or {}).get("cycle_guards"),
+               coarse=(it.get("coarse_start") or {}).get("newton"),
+               coarse_used=(it.get("coarse_start") or {}).get("used"),
                conditions=max((float(cond[k]) for k in CONDITIONS if cond.get(k) is not None), default=None))
     return row
+
+
+def point_values(points: list[dict]) -> dict:
+    """The law at the interface points of interface.csv, between the dofs (m): the smallest
+    gap overall, at the open points (contact 0: LAGS_C = 0 there) and at the closed ones
+    (contact 1: where the law asks for gap = 0), and the largest |slip| at the sticking
+    points (contact 1, sliding 0: where the law asks for slip = 0).  The dofs' own
+    conditions are results.json's ``conditions``; these are the point values between them."""
+    gap = [float(p["gap"]) for p in points]
+    is_open = [int(p["contact"]) == 0 for p in points]
+    stick = [not o and int(p["sliding"]) == 0 for o, p in zip(is_open, points)]
+    return dict(min_gap=min(gap), max_lags_c=max(float(p["LAGS_C"]) for p in points),
+                max_lags_f1=max(abs(float(p["LAGS_F1"])) for p in points),
+                min_gap_open=min((g for g, o in zip(gap, is_open) if o), default=None),
+                min_gap_closed=min((g for g, o in zip(gap, is_open) if not o), default=None),
+                max_slip_stick=max((abs(float(p["slip"])) for p, s in zip(points, stick) if s), default=None))
+
+
+def refinement(rows: list[dict], cells: list[str]) -> list[str]:
+    """Per cell type and mesh size, the worst point values over the radii and shifts (the
+    end of a contact zone falls elsewhere in its cell with each), and the factor from the
+    previous size."""
+    lines = ["", "Worst over radii and shifts, per mesh size (m; displacements about 1e-3 m), "
+             "and the factor from the previous size:", "",
+             "| cell | N | runs | min gap, open points | min gap, closed points | max slip, sticking points |",
+             "|---|---|---|---|---|---|"]
+    rates = []
+    for cell in cells:
+        prev, both = None, []
+        for n in sorted({r["n"] for r in rows if r["cell"] == cell}):
+            sub = [r for r in rows if r["cell"] == cell and r["n"] == n and r.get("converged")]
+            worst = [max((abs(min(r.get(k) or 0.0, 0.0)) for r in sub), default=None)
+                     for k in ("min_gap_open", "min_gap_closed")]
+            worst.append(max((r.get("max_slip_stick") or 0.0 for r in sub), default=None))
+            cols = []
+            for i, w in enumerate(worst):
+                f = "" if prev is None or not prev[i] or not w else f" (/{prev[i] / w:.1f})"
+                cols.append("-" if w is None else f"{w:.1e}{f}")
+            lines.append(f"| {cell} | {n} | {len(sub)} | " + " | ".join(cols) + " |")
+            prev = worst
+            if worst[0] is not None and max(worst[:2]) > 0:
+                both.append((n, max(worst[:2])))
+        if len(both) > 1:
+            # least squares of log(worst gap) against log(h), h = 10 m / N
+            slope = np.polyfit(np.log([10.0 / n for n, _ in both]), np.log([w for _, w in both]), 1)[0]
+            rates.append(f"{cell}: the worst point gap (open or closed) falls like h^{slope:.2f} "
+                         f"(least squares over N = {both[0][0]} ... {both[-1][0]})")
+    return lines + [""] + rates
 
 
 def main() -> None:
@@ -86,6 +149,8 @@ def main() -> None:
     ap.add_argument("--cells", nargs="+", default=["QUAD8", "TRIA6"], choices=["QUAD8", "TRIA6"])
     ap.add_argument("--n", nargs="+", type=int, default=[16, 20, 24, 30, 40], help="cells per side")
     ap.add_argument("--radius", nargs="+", type=float, default=[2.1, 2.3, 2.45], help="m")
+    ap.add_argument("--shift", nargs="+", type=float, default=[0.0],
+                    help="moves of the centre along x and y, in cells (0.25: a quarter cell)")
     ap.add_argument("--algo", choices=["AUTO", "STABLE", "NON"], help="[contact] algo_lagr (default: the case's)")
     ap.add_argument("--slots", type=int, default=2, help="runs at a time")
     ap.add_argument("--scratch", default="/tmp/xfc_inclusion_family")
@@ -101,10 +166,11 @@ def main() -> None:
     for cell in a.cells:
         for n in a.n:
             for radius in a.radius:
-                name = f"{cell.lower()}_n{n}_r{radius}"
-                toml = scratch / f"{name}.toml"
-                toml.write_text(variant(text, cell, n, radius, a.algo))
-                jobs.append(dict(name=name, cell=cell, n=n, radius=radius, toml=toml, out=scratch / name))
+                for shift in a.shift:
+                    name = f"{cell.lower()}_n{n}_r{radius}" + (f"_s{shift}" if shift else "")
+                    toml = scratch / f"{name}.toml"
+                    toml.write_text(variant(text, cell, n, radius, a.algo, shift))
+                    jobs.append(dict(name=name, cell=cell, n=n, radius=radius, toml=toml, out=scratch / name))
     t0 = time.perf_counter()
     with concurrent.futures.ThreadPoolExecutor(a.slots) as pool:
         rows = list(pool.map(lambda j: run(j, a.options), jobs))
@@ -126,6 +192,8 @@ def main() -> None:
                      f"{sum(1 for r in ok if (r.get('newton') or 0) <= a.limit)} within {a.limit} Newton "
                      f"iterations; {sum(1 for r in sub if r.get('forced'))} with forced status loops; "
                      f"Newton iterations over all runs {sum(r.get('newton') or 0 for r in sub)}")
+    if len(a.n) > 1:
+        lines += refinement(rows, a.cells)
     out = "\n".join(lines)
     print(out)
     res = ROOT / "bench" / "results"

@@ -219,10 +219,12 @@ CURVED = [
     ("curved_inclusion_mixed_quad8", "converges (18 Newton iterations with the coarse start; 278 and a forced "
                                      "status loop from the sticking start), but the point gap between an open "
                                      "and a closed dof reaches -8.0e-6 m at the end of the contact zone "
-                                     "(displacements 1e-3 m; the dof gaps are >= 0)"),
+                                     "(displacements 1e-3 m; the dof gaps are >= 0): a discretisation error, "
+                                     "falling like h^1.5 (test_point_gap_between_the_dofs_falls_with_the_mesh)"),
     ("curved_inclusion_mixed_tria6_gmsh", "converges (10 Newton iterations), but the point gap between an open "
                                           "and a closed dof reaches -2.7e-6 m at the end of the contact zone "
-                                          "(displacements 1e-3 m; the dof gaps are >= 0)"),
+                                          "(displacements 1e-3 m; the dof gaps are >= 0): a discretisation error, "
+                                          "falling like h^1.5 (test_point_gap_between_the_dofs_falls_with_the_mesh)"),
 ]
 
 
@@ -262,3 +264,38 @@ def test_curved_coulomb_admissible(run_once, name):
     bound = {"curved_ssnv509_mu02_quad8": 21, "curved_ssnv509_mu02_tria6_gmsh": 14,
              "curved_arc_shear_quad8": 20, "curved_arc_shear_quad8_gmsh": 21}[name]
     assert results(out)["iterations"]["newton"] <= bound
+
+
+@pytest.mark.slow
+def test_point_gap_between_the_dofs_falls_with_the_mesh(tmp_path):
+    """The point gap between the dofs is a discretisation error: the conditions hold on the
+    weighted mean gaps at the dofs (to round-off), and where a contact zone ends (pressure
+    like sqrt(d), gap like d^1.5 beyond it) the interpolated jump dips below zero over part of
+    a dof's support by an amount that falls like h^1.5 (bench/inclusion_family.py, 56 runs:
+    h^1.49 on QUAD8, h^1.58 on TRIA6).  The QUAD8 inclusion of the campaign: -8.0e-6 m on
+    20 x 20, -4.7e-7 m on 80 x 80 (displacements 1e-3 m; h^1.5 predicts a factor 8 for a
+    factor 4 in h).  The multiplier fields stay admissible at every point."""
+    import csv
+
+    from conftest import inclusion_case, run_cli
+
+    spec = importlib.util.spec_from_file_location("inclusion_family", ROOT / "bench" / "inclusion_family.py")
+    family = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(family)
+    worst = {}
+    for n in (20, 80):
+        out = tmp_path / f"n{n}"
+        p = run_cli(["run", inclusion_case(tmp_path, "QUAD8", n, 2.3), "-o", out, "--no-plots"])
+        assert p.returncode in (0, 1), p.stderr[-2000:]          # 1: the case's point-gap test
+        r = results(out)
+        assert r["converged"]
+        cond = {k: v for k, v in r["conditions"].items()
+                if k not in ("pressure_scale_pa", "jump_scale_m") and v is not None}
+        assert max(cond.values()) <= 1e-12, cond
+        with open(out / "interface.csv") as f:
+            points = list(csv.DictReader(f))
+        assert max(float(q["LAGS_C"]) for q in points) <= 1e-9 * 100.0
+        assert max(abs(float(q["LAGS_F1"])) for q in points) <= 1.0 + 1e-9
+        worst[n] = -min(family.point_values(points)["min_gap"], 0.0)
+    assert worst[20] > 1e-6                  # the case is one where the gap dips
+    assert worst[80] <= worst[20] / 4.0, worst
