@@ -598,3 +598,70 @@ def test_statuses_on_the_kink_within_newton_tolerance(tmp_path):
     assert r["multipliers"]["convex_for_weight"] == 0
     cond = r["conditions"]
     assert max(v for k, v in cond.items() if not k.endswith(("_pa", "_m"))) <= 1e-12, cond
+
+
+def test_threshold_steps_shorten_on_statuses_met_again():
+    """The threshold update halves its step where statuses changed, and halves it once more
+    each time the loop comes back to statuses it had in the load step (a cycle), down to
+    1 / 2**(1 + MAX_HALVINGS); on the same statuses Anderson's update goes on."""
+    from xfemcontact.contact import threshold
+
+    upd = threshold.ThresholdUpdate(lambda a, b: float(np.dot(a, b)))
+    s, target = np.array([-1.0]), np.array([-3.0])          # residual -2
+    steps = [float(upd(s, target, key)[0] - s[0]) / -2.0 for key in "ABABABABA"]
+    assert steps == [0.5, 0.5, 0.25, 0.25, 0.125, 0.125, 0.0625, 0.0625, 0.0625]
+    assert threshold.MAX_HALVINGS == 3
+    assert float(upd(s, target, "A")[0]) == -3.0               # same statuses: the plain update first
+
+
+def _inclusion_variant(tmp_path, cell, level_set, sxx, syy, sxy, mu):
+    """The floating inclusion of bench/inclusion_family.py on 24 x 24 ``cell`` with another
+    interface, uniform stress (Pa) and Coulomb coefficient."""
+    import re
+
+    text = inclusion_case(tmp_path, cell, 24, 2.3).read_text()
+    text = text.replace('"(x-xc)**2 + (y-yc)**2 - 2.3**2"', f'"{level_set}"')
+    for key, value in (("sxx", sxx), ("syy", syy), ("sxy", sxy), ("coulomb", mu)):
+        text, n = re.subn(rf"(?m)^{key} = .*$", f"{key} = {value}", text)
+        assert n == 1, key
+    case = tmp_path / f"variant_{cell}.toml"
+    case.write_text(text)
+    return case
+
+
+@pytest.mark.slow
+def test_a_status_cycle_of_the_threshold_loop_is_broken(tmp_path):
+    """A circular inclusion held by friction alone, mu = 0.6, under sigma = (-100, -50, 40) Pa
+    on 24 x 24 QUAD8: after the line search handed over to the threshold loop, the loop went
+    round a cycle of 10 status sets until ITER_FROT_MAXI (exit 3 after 291 Newton
+    iterations).  With the step shortened on statuses met again it converges (92)."""
+    case = _inclusion_variant(tmp_path, "QUAD8", "(x-xc)**2 + (y-yc)**2 - 2.3**2", -100.0, -50.0, 40.0, 0.6)
+    p = run_cli(["run", case, "-o", tmp_path / "out", "--no-plots"])
+    r = results(tmp_path / "out")
+    assert p.returncode in (0, 1) and r["converged"], p.stdout[-2000:]
+    assert not any("CONTACT3_86" in w for w in r["warnings"]), r["warnings"]
+    assert r["iterations"]["newton"] <= 120
+    cond = {k: v for k, v in r["conditions"].items() if k not in ("pressure_scale_pa", "jump_scale_m") and v is not None}
+    assert max(cond.values()) <= 1e-12, cond
+
+
+@pytest.mark.slow
+def test_the_coarse_start_keeps_to_its_budget(tmp_path):
+    """A tilted elliptic inclusion, mu = 0.6, under sigma = (-100, 50, 10) Pa on 24 x 24 TRIA6:
+    the stable space's threshold loop cycled for 309 Newton iterations before the run went on
+    from the sticking start (345 in all).  The coarse start is a start: at most
+    COARSE_ITER_FROT threshold iterations to RESI_FROT COARSE_RESI_FROT; it then converges and
+    the run takes 69."""
+    from xfemcontact import model
+
+    case = _inclusion_variant(tmp_path, "TRIA6",
+                              "((0.8*(x-xc)+0.6*(y-yc))/2.8)**2 + ((-0.6*(x-xc)+0.8*(y-yc))/1.8)**2 - 1",
+                              -100.0, 50.0, 10.0, 0.6)
+    p = run_cli(["run", case, "-o", tmp_path / "out", "--no-plots"])
+    r = results(tmp_path / "out")
+    assert p.returncode in (0, 1) and r["converged"], p.stdout[-2000:]
+    start = r["iterations"]["coarse_start"]
+    assert start["threshold_iterations"] <= model.COARSE_ITER_FROT
+    assert r["iterations"]["newton"] <= 100
+    cond = {k: v for k, v in r["conditions"].items() if k not in ("pressure_scale_pa", "jump_scale_m") and v is not None}
+    assert max(cond.values()) <= 1e-12, cond
