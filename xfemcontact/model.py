@@ -139,6 +139,7 @@ class Model:
         #: the loads are the case's own (no instant of a load history): a coarse model of the
         #: same case solves the same problem (:meth:`coarse_start`)
         self.loads_from_case = True
+        self.load_instant: float | None = None      # the instant of set_loads (a load history)
 
     @classmethod
     def from_case(cls, case: Case, raw: RawMesh | None = None) -> Model:
@@ -319,12 +320,13 @@ class Model:
         self.K.assemble()
         self._K_int = K
 
-    def set_loads(self, x_bc: FloatArray, f0: PETSc.Vec, load_norm: float) -> None:
-        """The loads of another instant (:mod:`xfemcontact.history.loading`): imposed
+    def set_loads(self, x_bc: FloatArray, f0: PETSc.Vec, load_norm: float, t: float | None = None) -> None:
+        """The loads of another instant ``t`` (:mod:`xfemcontact.history.loading`): imposed
         values ``x_bc`` (local work array), ``f0`` (global Vec) and the reference of
         Newton's relative criterion ``load_norm``.  The bulk matrix does not change."""
         self.x_bc, self.f0, self.load_norm = x_bc, f0, load_norm
         self.loads_from_case = False
+        self.load_instant = t
 
     # -- solve --------------------------------------------------------------
     def solve(self) -> int:
@@ -334,7 +336,7 @@ class Model:
         changed keeps its factorisation."""
         if self.solver is None:
             self.solver = NonlinearSolver(self)
-            if self.mesh.dim == 2 and self.problem is not None and self.loads_from_case:
+            if self.mesh.dim == 2 and self.problem is not None:
                 self.solver.coarse_start = self.coarse_start
         self.layout.release_setup()      # PetscSections and DMPlex: not needed from here on
         release_heap()
@@ -363,8 +365,15 @@ class Model:
         Returns what it did (results.json ``iterations.coarse_start``); ``x`` is left as it was
         if the coarse solve did not converge."""
         t0 = time.perf_counter()
-        c = self.case.contact
-        case = dataclasses.replace(self.case, contact=dataclasses.replace(
+        case = self.case
+        if not self.loads_from_case:             # the first step of a load history: its loads
+            from xfemcontact.history.loading import case_at
+
+            if self.load_instant is None:
+                return None
+            case = case_at(case, self.load_instant)
+        c = case.contact
+        case = dataclasses.replace(case, contact=dataclasses.replace(
             c, algo_lagr="STABLE", resi_frot=max(c.resi_frot, COARSE_RESI_FROT),
             iter_frot_maxi=min(c.iter_frot_maxi, COARSE_ITER_FROT)))
         coarse = Model(case)

@@ -176,7 +176,7 @@ class Loading:
         norm = f0.norm()
         if norm > 0:
             self.reference = norm
-        model.set_loads(x_bc, f0, norm if norm > 0 or self.reference is None else self.reference)
+        model.set_loads(x_bc, f0, norm if norm > 0 or self.reference is None else self.reference, t)
         self.t = t
 
     def path(self, t: float) -> dict[str, float]:
