@@ -25,6 +25,7 @@ from mpi4py import MPI
 from xfemcontact import preflight
 from xfemcontact._petsc import PETSc
 from xfemcontact.assembly import pattern, system
+from xfemcontact.case.instant import case_at
 from xfemcontact.fem.coordinates import coordinates
 from xfemcontact.contact import laws
 from xfemcontact.contact.problem import InterfaceSetup
@@ -367,8 +368,6 @@ class Model:
         t0 = time.perf_counter()
         case = self.case
         if not self.loads_from_case:             # the first step of a load history: its loads
-            from xfemcontact.history.loading import case_at
-
             if self.load_instant is None:
                 return None
             case = case_at(case, self.load_instant)

@@ -16,12 +16,12 @@ non-zero one is used, as code_aster does.
 """
 from __future__ import annotations
 
-import dataclasses
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from xfemcontact.assembly import bulk, system
+from xfemcontact.case.instant import case_at
 from xfemcontact.dofs.constraints import group_nodes_everywhere
 from xfemcontact.fem import elasticity
 from xfemcontact.fem.coordinates import coordinates
@@ -38,22 +38,6 @@ if TYPE_CHECKING:
 
     FloatArray = NDArray[np.float64]
     IntArray = NDArray[np.int64]
-
-
-def case_at(case: Case, t: float) -> Case:
-    """``case`` with its loads (imposed displacements, tractions, body force) at ``t``."""
-    def comps(d: dict[str, TimeFormula]) -> dict[str, TimeFormula]:
-        return {k: f.at(t) for k, f in d.items()}
-
-    dirichlet = tuple(dataclasses.replace(d, components=comps(d.components)) for d in case.dirichlet)
-    traction = tuple(dataclasses.replace(tr, force=None if tr.force is None else comps(tr.force),
-                                         pressure=None if tr.pressure is None else tr.pressure.at(t))
-                     for tr in case.traction)
-    body = case.body_force
-    if body is not None:
-        body = dataclasses.replace(body, FX=body.FX.at(t), FY=body.FY.at(t),
-                                   FZ=None if body.FZ is None else body.FZ.at(t))
-    return dataclasses.replace(case, dirichlet=dirichlet, traction=traction, body_force=body)
 
 
 def _uses_time(spec: Any) -> bool:
