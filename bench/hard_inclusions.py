@@ -22,7 +22,6 @@ import argparse
 import concurrent.futures
 import importlib.util
 import itertools
-import json
 import pathlib
 import re
 import shutil
@@ -97,13 +96,7 @@ def main() -> None:
               f"{sum(1 for r in rows if r.get('forced'))} with forced status loops; Newton iterations over all runs "
               f"{sum(r.get('newton') or 0 for r in rows)}; worst condition at the dofs "
               f"{max((r.get('conditions') or 0.0 for r in ok), default=0.0):.1e}"]
-    out = "\n".join(lines)
-    print(out)
-    res = ROOT / "bench" / "results"
-    res.mkdir(exist_ok=True)
-    (res / f"{a.name}.md").write_text(out + "\n")
-    (res / f"{a.name}.json").write_text(json.dumps(dict(argv=sys.argv[1:], rows=rows), indent=1, default=str))
-    print(f"\nwrote {res / a.name}.md and .json")
+    family.write_results(a.name, lines, rows)
 
 
 if __name__ == "__main__":

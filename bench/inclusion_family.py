@@ -144,6 +144,17 @@ def refinement(rows: list[dict], cells: list[str]) -> list[str]:
     return lines + [""] + rates
 
 
+def write_results(name: str, lines: list[str], rows: list[dict]) -> None:
+    """Print the table ``lines`` and write it with the ``rows`` to bench/results/<name>.md, .json."""
+    out = "\n".join(lines)
+    print(out)
+    res = ROOT / "bench" / "results"
+    res.mkdir(exist_ok=True)
+    (res / f"{name}.md").write_text(out + "\n")
+    (res / f"{name}.json").write_text(json.dumps(dict(argv=sys.argv[1:], rows=rows), indent=1, default=str))
+    print(f"\nwrote {res / name}.md and .json")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--cells", nargs="+", default=["QUAD8", "TRIA6"], choices=["QUAD8", "TRIA6"])
@@ -194,13 +205,7 @@ def main() -> None:
                      f"Newton iterations over all runs {sum(r.get('newton') or 0 for r in sub)}")
     if len(a.n) > 1:
         lines += refinement(rows, a.cells)
-    out = "\n".join(lines)
-    print(out)
-    res = ROOT / "bench" / "results"
-    res.mkdir(exist_ok=True)
-    (res / f"{a.name}.md").write_text(out + "\n")
-    (res / f"{a.name}.json").write_text(json.dumps(dict(argv=sys.argv[1:], rows=rows), indent=1, default=str))
-    print(f"\nwrote {res / a.name}.md and .json")
+    write_results(a.name, lines, rows)
 
 
 if __name__ == "__main__":

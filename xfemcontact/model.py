@@ -137,10 +137,9 @@ class Model:
         self.x = self.layout.create_global_vec()
         self.x.set(0.0)
         self.solver = None
-        #: the loads are the case's own (no instant of a load history): a coarse model of the
-        #: same case solves the same problem (:meth:`coarse_start`)
-        self.loads_from_case = True
-        self.load_instant: float | None = None      # the instant of set_loads (a load history)
+        #: the instant of a load history whose loads :meth:`set_loads` put in (None: the case's
+        #: own loads); the coarse start solves the case at that instant (:meth:`coarse_start`)
+        self.load_instant: float | None = None
 
     @classmethod
     def from_case(cls, case: Case, raw: RawMesh | None = None) -> Model:
@@ -321,12 +320,11 @@ class Model:
         self.K.assemble()
         self._K_int = K
 
-    def set_loads(self, x_bc: FloatArray, f0: PETSc.Vec, load_norm: float, t: float | None = None) -> None:
+    def set_loads(self, x_bc: FloatArray, f0: PETSc.Vec, load_norm: float, t: float) -> None:
         """The loads of another instant ``t`` (:mod:`xfemcontact.history.loading`): imposed
         values ``x_bc`` (local work array), ``f0`` (global Vec) and the reference of
         Newton's relative criterion ``load_norm``.  The bulk matrix does not change."""
         self.x_bc, self.f0, self.load_norm = x_bc, f0, load_norm
-        self.loads_from_case = False
         self.load_instant = t
 
     # -- solve --------------------------------------------------------------
@@ -347,7 +345,7 @@ class Model:
             self.problem.check_conditions(self.x)
         return reason
 
-    def coarse_start(self, x: PETSc.Vec) -> dict[str, Any] | None:
+    def coarse_start(self, x: PETSc.Vec) -> dict[str, Any]:
         """Replace the sticking start ``x`` by the solution of the same case in the stable
         multiplier space (``algo_lagr = "STABLE"``, 2-D), when the problem asks for it
         (:meth:`~xfemcontact.contact.problem.InterfaceProblem.wants_coarse_start`).
@@ -367,9 +365,7 @@ class Model:
         if the coarse solve did not converge."""
         t0 = time.perf_counter()
         case = self.case
-        if not self.loads_from_case:             # the first step of a load history: its loads
-            if self.load_instant is None:
-                return None
+        if self.load_instant is not None:        # the first step of a load history: its loads
             case = case_at(case, self.load_instant)
         c = case.contact
         case = dataclasses.replace(case, contact=dataclasses.replace(
