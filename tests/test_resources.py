@@ -1,5 +1,7 @@
 """Memory estimate and refusal of cases that cannot fit; phase memory in results.json;
 the deformed-mesh image; the plot helper's fallback.  (No test looks at wall times.)"""
+import os
+
 import numpy as np
 import pytest
 
@@ -161,14 +163,52 @@ def test_plots_are_written_with_and_without_the_helper(tmp_path, monkeypatch, sp
     assert any(k.startswith("plot_helper_cpu:") for k in steps) == spare
 
 
-def test_plot_helper_starts_before_the_solve_on_small_runs_only(monkeypatch):
-    """Below EARLY_PLOTS_MB of estimated peak the helper imports matplotlib during the
-    solve; above, it would hold its memory through the factorisation."""
-    from xfemcontact import run
+def test_plot_helpers_start_before_the_solve_where_a_core_is_spare(tmp_path, monkeypatch):
+    """With a spare core the helpers import matplotlib while the run solves, whatever
+    its size (the run keeps its peak memory to its end: a helper beside it raises the
+    machine's peak as much whenever it starts); two of them, and the run gets every
+    plot."""
+    from xfemcontact.model import Model
+    from xfemcontact.output import folder as folder_module
+    from xfemcontact.output import plotter
 
-    monkeypatch.setattr(resources, "LAST", {})
-    assert not run._plots_early()                         # no estimate: as before
-    resources.check_cells("QUAD8", 160 ** 2, 1, "probe")  # about 430 MB
-    assert run._plots_early()
-    resources.check_cells("QUAD8", 320 ** 2, 1, "probe")  # about 1.4 GB
-    assert not run._plots_early()
+    monkeypatch.setattr(plotter, "spare_core", lambda size: True)
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    events = []
+    start, solve = folder_module.OutputFolder.start_plot_helper, Model.solve
+
+    def start_helper(self, *args):
+        helper = start(self, *args)
+        events.append(("helpers", len(helper.procs) if helper is not None else 0))
+        return helper
+
+    def solve_model(self, *args, **kwargs):
+        events.append(("solve", 0))
+        return solve(self, *args, **kwargs)
+
+    monkeypatch.setattr(folder_module.OutputFolder, "start_plot_helper", start_helper)
+    monkeypatch.setattr(Model, "solve", solve_model)
+    case = write_case(tmp_path, SSNV509A)
+    from xfemcontact.cli import main
+    assert main(["run", str(case), "-o", str(tmp_path / "out")]) == 0
+    assert events[:2] == [("helpers", 2), ("solve", 0)]
+    for name in plots.PLOTS_2D:
+        assert (tmp_path / "out" / name).stat().st_size > 10_000
+    steps = results(tmp_path / "out")["timing_steps"]
+    assert {f"plot_helper_cpu:{name}" for name in plots.PLOTS_2D} <= set(steps)
+
+
+def test_plot_jobs_are_dealt_to_the_helpers_in_turn(tmp_path):
+    from xfemcontact.output.plotter import PlotHelper
+
+    helper = PlotHelper.start(1, idle_ranks=1)
+    try:
+        assert len(helper.procs) == 2
+        jobs = [("plot_a.png", "multipliers_figure", ()), ("plot_b.png", "multipliers_figure", ())]
+        assert helper.send(jobs, tmp_path) and helper.send(jobs[:1], tmp_path)
+        assert helper.sent == ["plot_a.png", "plot_b.png", "plot_a.png"]
+    finally:
+        helper.stop()
+    assert not helper.running and helper.procs == []
+
+

@@ -65,20 +65,6 @@ def node_samples(model: Model, u: NDArray[np.float64]) -> testtable.Samples:
                              z=x[:, 2] if x.shape[1] == 3 else None)
 
 
-#: below this estimated peak per process (MB) the plot helper starts before the solve:
-#: its 45 MB do not matter there, and on small runs the 0.3 s it takes to import
-#: matplotlib are a large share of the output phase (see output/plotter.py)
-EARLY_PLOTS_MB = 1000.0
-
-
-def _plots_early() -> bool:
-    """Whether the plot helper should start before the solve (a small run)."""
-    from xfemcontact import resources
-
-    est = resources.summary()
-    return est is not None and float(est["estimate_mb"]) < EARLY_PLOTS_MB
-
-
 def cell_samples(model: Model, values: Iterable[PointValues]) -> testtable.Samples:
     """The stress components at the quadrature points of ``values`` (those of positive
     weight); empty on a process without cells (more processes than cells)."""
@@ -176,8 +162,12 @@ def run(case_path: str | os.PathLike[str], outdir: str | None = None, overwrite:
         if case.instants.given:
             assert checkpoints is not None           # made for a case with [instants]
             return _run_history(case, model, folder, checkpoints, outdir, pre, comm, quiet, t0)
-        if case.output.plots and _plots_early():
-            folder.start_plot_helper()       # matplotlib imported while the solve runs
+        if case.output.plots:
+            # matplotlib imported while the solve runs (when the machine has a spare core).
+            # The run keeps its peak memory to its end (glibc does not trim:
+            # timing.release_heap), so the helper beside it raises the machine's peak
+            # as much as when it started with the outputs, no more
+            folder.start_plot_helper()
         tic = time.perf_counter()
         reason = model.solve()
         seconds = time.perf_counter() - tic

@@ -424,14 +424,16 @@ class OutputFolder:
             (self.tmp / MARK).write_text('{"written_by": "xfemcontact", "files": []}\n',
                                          encoding="utf-8")
 
-    def start_plot_helper(self) -> PlotHelper | None:
-        """Start the process that will draw the plots into this folder (rank 0; see
-        :mod:`xfemcontact.output.plotter`) and return it (None elsewhere); the same
-        one when called again.  Stopped by :meth:`abort`."""
-        if self.rank == 0 and self.plot_helper is None:
+    def start_plot_helper(self, idle_ranks: int = 0) -> PlotHelper | None:
+        """Start the processes that will draw the plots into this folder (rank 0; see
+        :mod:`xfemcontact.output.plotter`; ``idle_ranks``: processes of the run on this
+        machine that will wait without spinning) and return them (None elsewhere); the
+        same ones when called again, unless none could start before.  Stopped by
+        :meth:`abort`."""
+        if self.rank == 0 and (self.plot_helper is None or (idle_ranks and not self.plot_helper.procs)):
             from xfemcontact.output.plotter import PlotHelper
 
-            self.plot_helper = PlotHelper.start(self.size)
+            self.plot_helper = PlotHelper.start(self.size, idle_ranks)
         return self.plot_helper
 
     def stop_plot_helper(self) -> None:

@@ -1,24 +1,30 @@
-"""The PNG plots drawn by a helper process while the run writes its other files.
+"""The PNG plots drawn by helper processes while the run writes its other files.
 
-Drawing the four plots takes matplotlib most of a second, plus 0.3 s to import it.
-When the machine has a core the run does not use (one process on a 2-core
-machine), rank 0 starts a helper Python process when the output phase begins
-(:meth:`PlotHelper.start`): it imports matplotlib while the run gathers the
-interface table, and draws the plots that need only that table and the
-iteration record while the run builds the post-processing mesh and writes
-fields.xdmf; then the deformed mesh (as the image or polygons
-:func:`~xfemcontact.post.plots.deformed_data` reduced it to) and the statuses.
-The run waits for it before report.md (:meth:`PlotHelper.finish`).  On large runs
-it is not started earlier on purpose: during the factorisation it would hold about
-45 MB (Python, NumPy, matplotlib) for nothing; on runs estimated below
-:data:`xfemcontact.run.EARLY_PLOTS_MB` it starts before the solve, which hides the
-import of matplotlib.
+Drawing the four plots takes matplotlib 0.5 - 0.7 s of CPU, plus 0.3 s to import
+it.  Rank 0 starts up to :data:`HELPERS` helper Python processes
+(:meth:`PlotHelper.start`):
 
-Whatever goes wrong with the helper (it could not start, died, reported an
-error), the plots it did not confirm are drawn by the run itself: the files are
-the same either way.  The helper reads its jobs from a pipe and leaves when the
-pipe closes, so it never outlives the run; it ignores SIGINT (the run handles
-interruptions and closes the pipe).
+* on a machine with a core the run does not use (one process on a 2-core machine),
+  before the solve: they import matplotlib meanwhile.  Whatever the run's size: the
+  run keeps its peak memory to its end (glibc does not trim, see
+  :func:`xfemcontact.timing.release_heap`), so a helper beside it (60 MB resident,
+  38 MB of its own) raises the machine's peak as much whenever it starts;
+* on several processes, when the output phase begins, on the cores of the other
+  processes of rank 0's machine: those wait without spinning
+  (:func:`xfemcontact.output.results.wait_quietly`) until rank 0 is done.
+
+The jobs are dealt to the helpers in turn: first the plots that need only the
+interface table and the iteration record, drawn while the run builds the
+post-processing mesh; then the statuses and the deformed mesh (as the image or
+polygons :func:`~xfemcontact.post.plots.deformed_data` reduced it to), drawn while
+the run writes fields.xdmf.  The run waits for them before report.md
+(:meth:`PlotHelper.finish`).
+
+Whatever goes wrong with a helper (it could not start, died, reported an error),
+the plots not confirmed are drawn by the run itself: the files are the same either
+way.  A helper reads its jobs from a pipe and leaves when the pipe closes, so it
+never outlives the run; it ignores SIGINT (the run handles interruptions and closes
+the pipe).
 """
 from __future__ import annotations
 
@@ -27,7 +33,7 @@ import os
 import pickle
 import subprocess
 import sys
-from typing import TYPE_CHECKING, Iterable, Sequence
+from typing import IO, TYPE_CHECKING, Iterable, Sequence
 
 if TYPE_CHECKING:
     import threading
@@ -36,8 +42,10 @@ if TYPE_CHECKING:
     #: a file or folder name as the callers give it
     PathName = str | os.PathLike[str]
 
-#: seconds the run waits for the helper's answer before drawing the plots itself
+#: seconds the run waits for the helpers' answers before drawing the plots itself
 TIMEOUT = 120.0
+#: helper processes at most: the 2-D run has four plots, two helpers draw two each
+HELPERS = 2
 
 
 def spare_core(comm_size: int) -> bool:
@@ -46,13 +54,16 @@ def spare_core(comm_size: int) -> bool:
 
 
 class PlotHelper:
-    """A helper process drawing plots (see the module docstring); rank 0 only."""
+    """Helper processes drawing plots (see the module docstring); rank 0 only.
+
+    With several helpers the jobs are dealt in turn (the first job to the first
+    helper, the second to the second, ...), over every :meth:`send`."""
 
     def __init__(self) -> None:
-        self.proc: subprocess.Popen[bytes] | None = None
+        self.procs: list[subprocess.Popen[bytes]] = []
         self.jobs: list[Job] = []                      # the jobs sent
-        self._writers: list[threading.Thread] = []     # threads writing to the helper's pipe
-        self.times: dict[str, float] = {}              # the helper's CPU seconds: "import", and per PNG
+        self._writers: list[threading.Thread] = []     # threads writing to the helpers' pipes
+        self.times: dict[str, float] = {}              # the helpers' CPU seconds: "import" (the longest), and per PNG
 
     @property
     def sent(self) -> list[str]:
@@ -60,81 +71,98 @@ class PlotHelper:
         return [name for name, _, _ in self.jobs]
 
     @classmethod
-    def start(cls, comm_size: int = 1) -> PlotHelper:
-        """A started helper, or one that is not running (then :meth:`send` refuses
-        and the caller draws the plots itself)."""
+    def start(cls, comm_size: int = 1, idle_ranks: int = 0) -> PlotHelper:
+        """Started helpers, or none (then :meth:`send` refuses and the caller draws the
+        plots itself).  They start where the machine has a core the run does not use,
+        or ``idle_ranks`` processes of the run on this machine that wait without
+        spinning while the helpers draw (:func:`xfemcontact.output.results.wait_quietly`);
+        as many as those cores and this process's own (it waits too), up to
+        :data:`HELPERS`."""
         helper = cls()
-        if not spare_core(comm_size):
+        if not (spare_core(comm_size) or idle_ranks > 0):
             return helper
-        try:
-            helper.proc = subprocess.Popen(
-                [sys.executable, "-c", "from xfemcontact.output.plotter import serve; serve()"],
-                stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, close_fds=True)
-        except OSError:
-            helper.proc = None
+        count = max(1, min(HELPERS, (os.cpu_count() or 1) - comm_size + idle_ranks + 1))
+        for _ in range(count):
+            try:
+                helper.procs.append(subprocess.Popen(
+                    [sys.executable, "-c", "from xfemcontact.output.plotter import serve; serve()"],
+                    stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, close_fds=True))
+            except OSError:
+                break
         return helper
 
     @property
     def running(self) -> bool:
-        return self.proc is not None and self.proc.poll() is None
+        return bool(self.procs) and all(p.poll() is None for p in self.procs)
 
     def send(self, jobs: Sequence[Job], folder_path: PathName) -> bool:
-        """Hand ``jobs`` [(png name, plots function name, args)] to the helper, to be
-        written into ``folder_path``; False (nothing sent) when it is not running."""
+        """Hand ``jobs`` [(png name, plots function name, args)] to the helpers, to be
+        written into ``folder_path``; False (nothing sent) when they are not running."""
         if not self.running or not jobs:
             return False
+        turn = len(self.jobs)
+        batches: list[list[Job]] = [[] for _ in self.procs]
+        for k, job in enumerate(jobs):
+            batches[(turn + k) % len(self.procs)].append(job)
         try:
-            data = pickle.dumps((str(folder_path), jobs), protocol=pickle.HIGHEST_PROTOCOL)
+            data = [pickle.dumps((str(folder_path), batch), protocol=pickle.HIGHEST_PROTOCOL)
+                    for batch in batches]
         except (pickle.PicklingError, TypeError, AttributeError):
             return False
-        # the helper reads only once matplotlib is imported: a thread waits on the pipe
+        # a helper reads only once matplotlib is imported: a thread waits on each pipe
         # (the interpreter lock is released while it blocks), this process goes on
         import threading
 
-        assert self.proc is not None and self.proc.stdin is not None      # running, on a pipe
-        stdin = self.proc.stdin
-
-        def write() -> None:
-            try:
-                stdin.write(data)
-                stdin.flush()
-            except (OSError, ValueError):
-                pass                     # the helper died: finish() finds its jobs missing
-
-        writer = threading.Thread(target=write, daemon=True)
-        writer.start()
-        self._writers.append(writer)
+        for proc, batch, message in zip(self.procs, batches, data):
+            if not batch:
+                continue
+            assert proc.stdin is not None      # started on a pipe
+            writer = threading.Thread(target=_write, args=(proc.stdin, message), daemon=True)
+            writer.start()
+            self._writers.append(writer)
         self.jobs += list(jobs)
         return True
 
     def finish(self, timeout: float = TIMEOUT) -> list[str]:
-        """Wait for the helper; returns the names of the PNGs it wrote.  Its CPU times
-        (import, each plot) are left in :attr:`times`."""
-        if self.proc is None:
+        """Wait for the helpers; returns the names of the PNGs they wrote.  Their CPU
+        times (import, each plot) are left in :attr:`times`."""
+        if not self.procs:
             return []
         for writer in self._writers:
             writer.join()
+        done: list[str] = []
         try:
-            out, _ = self.proc.communicate(timeout=timeout)     # closes the helper's stdin first
-            done, self.times = pickle.loads(out) if out else ([], {})
-        except Exception:            # timeout, crash, garbage on the pipe: draw them ourselves
+            for proc in self.procs:
+                out, _ = proc.communicate(timeout=timeout)     # closes the helper's stdin first
+                names, times = pickle.loads(out) if out else ([], {})
+                done += names
+                for key, cpu in times.items():
+                    self.times[key] = max(cpu, self.times.get(key, 0.0))
+        except Exception:            # timeout, crash, garbage on a pipe: draw them ourselves
             self.stop()
             return []
-        self.proc = None
+        self.procs = []
         return [name for name in done if name in self.sent]
 
     def stop(self) -> None:
-        """End the helper at once (abort, or after it failed)."""
-        if self.proc is None:
-            return
-        try:
-            self.proc.kill()
-            self.proc.wait(timeout=5)
-        except Exception:
-            pass
-        for writer in self._writers:     # the pipe is broken now: they return
+        """End the helpers at once (abort, or after one failed)."""
+        for proc in self.procs:
+            try:
+                proc.kill()
+                proc.wait(timeout=5)
+            except Exception:
+                pass
+        for writer in self._writers:     # the pipes are broken now: they return
             writer.join(timeout=5)
-        self.proc = None
+        self.procs = []
+
+
+def _write(stdin: IO[bytes], data: bytes) -> None:
+    try:
+        stdin.write(data)
+        stdin.flush()
+    except (OSError, ValueError):
+        pass                     # the helper died: finish() finds its jobs missing
 
 
 def run_jobs(jobs: Iterable[Job], folder_path: PathName, times: dict[str, float] | None = None) -> list[str]:
@@ -199,3 +227,5 @@ def serve() -> None:
         sys.stdout.buffer.flush()
     except OSError:
         pass
+    # the PNGs are closed: leave without tearing matplotlib down (0.1 s the run would wait)
+    os._exit(0)

@@ -8,6 +8,7 @@ import numpy as np
 from xfemcontact import __version__, resources, timing
 
 if TYPE_CHECKING:
+    from xfemcontact._petsc import PETSc
     from xfemcontact.model import Model
     from xfemcontact.output.folder import OutputFolder
     from xfemcontact.post.postmesh import PostMesh
@@ -92,20 +93,22 @@ def interface_table(model: Model) -> dict[str, list[Any]] | None:
     return {k: allv[k][order].tolist() for k in keys}
 
 
-def write_fields(folder: OutputFolder, model: Model) -> tuple[PostMesh | None, list[str]]:
-    """The post-processing mesh and its fields (see :mod:`xfemcontact.post.postmesh`) as
-    fields.xdmf + fields.h5 (and fields.vtu, fields.med if asked); in 3-D its interface
-    surface (:mod:`xfemcontact.post.surface`) as interface.xdmf + interface.h5 (and
-    interface.vtu with vtu).  Collective.
-
-    Returns the PostMesh and the file names written on rank 0, (None, []) elsewhere.
-    """
+def build_post(model: Model) -> PostMesh | None:
+    """The post-processing mesh (:func:`xfemcontact.post.postmesh.build`); collective,
+    None where there is none."""
     from xfemcontact.post import postmesh
 
     with timing.step("output:postmesh"):
-        post = postmesh.build(model)
+        return postmesh.build(model)
+
+
+def write_field_files(folder: OutputFolder, model: Model, post: PostMesh | None) -> list[str]:
+    """The fields of the post-processing mesh ``post`` (see :mod:`xfemcontact.post.postmesh`)
+    as fields.xdmf + fields.h5 (and fields.vtu, fields.med if asked); in 3-D its interface
+    surface (:mod:`xfemcontact.post.surface`) as interface.xdmf + interface.h5 (and
+    interface.vtu with vtu).  Collective; returns the file names written on rank 0."""
     if post is None:
-        return None, []
+        return []
     formats = model.case.output.formats
     written: list[str] = []
     if "xdmf" in formats:
@@ -115,7 +118,7 @@ def write_fields(folder: OutputFolder, model: Model) -> tuple[PostMesh | None, l
             for name, mesh in field_meshes(post):
                 xdmf.write(folder.file(f"{name}.xdmf"), mesh)
                 written += [f"{name}.xdmf", f"{name}.h5"]
-    return post, written + write_meshio_formats(folder, post, formats)
+    return written + write_meshio_formats(folder, post, formats)
 
 
 def field_meshes(post: PostMesh) -> list[tuple[str, PostMesh]]:
@@ -159,8 +162,9 @@ def write_outputs(folder: OutputFolder, model: Model, converged: bool, reason: i
 
     rank0 = model.comm.rank == 0
     case = model.case
+    idle = local_peers(model.comm) if case.output.plots else 0
     want_plots = rank0 and case.output.plots
-    helper = folder.start_plot_helper() if want_plots else None      # imports matplotlib meanwhile
+    helper = folder.start_plot_helper(idle) if want_plots else None      # imports matplotlib meanwhile
     with timing.step("output:interface"):
         table = interface_csv.build(model)
     summary_now = summary(model, converged, reason, outcomes)
@@ -174,15 +178,8 @@ def write_outputs(folder: OutputFolder, model: Model, converged: bool, reason: i
                                criterion, resi_frot)
         if not helper.send(jobs, folder.file(".")):
             here += jobs
-    post, files = write_fields(folder, model)
-    if not rank0:
-        return
-    warnings = list(warnings)
-    if table is not None:
-        with timing.step("output:interface"):
-            files += interface_csv.write(folder, table)
-        warnings += table.warnings
-    if helper is not None:
+    post = build_post(model)
+    if helper is not None:     # the plots of the mesh first: the helper draws them while the files are written
         with timing.step("output:plots"):
             jobs = plots.mesh_jobs(title, post, table, case.material.E,
                                    friction=bool(model.problem is not None and model.problem.friction),
@@ -191,6 +188,17 @@ def write_outputs(folder: OutputFolder, model: Model, converged: bool, reason: i
                                    profile=(case.output.profile_point, case.output.profile_normal))
             if not helper.send(jobs, folder.file(".")):
                 here += jobs
+    files = write_field_files(folder, model, post)
+    if not rank0:
+        wait_quietly(model.comm)
+        return
+    warnings = list(warnings)
+    if table is not None:
+        with timing.step("output:interface"):
+            files += interface_csv.write(folder, table)
+        warnings += table.warnings
+    if helper is not None:
+        with timing.step("output:plots"):
             drawn = plots.run(folder, here)
         with timing.step("output:plots_wait"):
             drawn += helper.finish()
@@ -202,3 +210,31 @@ def write_outputs(folder: OutputFolder, model: Model, converged: bool, reason: i
         files += [name for name in plots.ORDER if name in drawn]
     with timing.step("output:report"):
         report.write(folder, summary_now, files, case_source=case.source, warnings=warnings)
+    wait_quietly(model.comm)
+
+
+def local_peers(comm: PETSc.Comm) -> int:
+    """The other processes of the run on rank 0's machine (collective; 0 on one process):
+    they wait in :func:`wait_quietly` while rank 0 writes, so their cores can draw."""
+    if comm.size == 1:
+        return 0
+    from mpi4py import MPI
+
+    mpi = comm.tompi4py()
+    node = mpi.Split_type(MPI.COMM_TYPE_SHARED)
+    peers = node.Get_size() - 1
+    node.Free()
+    return int(mpi.bcast(peers, root=0))
+
+
+def wait_quietly(comm: PETSc.Comm, pause: float = 0.002) -> None:
+    """A barrier that sleeps instead of spinning (collective): Open MPI's busy polling
+    in a collective would take the core of a process that is done away from rank 0's
+    plot helpers."""
+    if comm.size == 1:
+        return
+    import time
+
+    request = comm.tompi4py().Ibarrier()
+    while not request.Test():
+        time.sleep(pause)

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
+    from matplotlib.axes import Axes
     from matplotlib.figure import Figure
     from numpy.typing import ArrayLike, NDArray
 
@@ -24,6 +25,15 @@ def figure(w: float, h: float, **margins: float) -> Figure:
     fig = Figure(figsize=(w, h), dpi=110)
     fig.subplots_adjust(**margins)
     return fig
+
+
+def plain_log_labels(ax: Axes) -> None:
+    """Tick labels of a log-scaled y axis as plain text (``1e-05``): the default ones
+    are mathtext (``$10^{-5}$``), whose parser took 0.15 s of a 0.2 s figure."""
+    from matplotlib.ticker import LogFormatter
+
+    ax.yaxis.set_major_formatter(LogFormatter())
+    ax.yaxis.set_minor_formatter(LogFormatter(labelOnlyBase=False))
 
 
 def rasterise(tri: FloatArray, label: IntArray, W: int, H: int, chunk: int = 1 << 21) -> IntArray:

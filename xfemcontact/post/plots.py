@@ -31,6 +31,7 @@ import numpy as np
 
 from xfemcontact.post.drawing import colour_limits as _colour_limits
 from xfemcontact.post.drawing import figure as _figure
+from xfemcontact.post.drawing import plain_log_labels
 from xfemcontact.post.drawing import rasterise
 
 if TYPE_CHECKING:
@@ -426,6 +427,7 @@ def convergence_figure(history: Sequence[float], iterations: Mapping[str, Any], 
     from matplotlib.ticker import MaxNLocator
 
     ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    plain_log_labels(ax)
     ax.set_xlabel("residual evaluation (all Newton solves in order)")
     ax.set_ylabel("Newton residual norm |R| (N)")
     key = "F<i> C<j>: friction iteration i, contact iteration j" if friction else "C<j>: contact iteration j"
@@ -439,6 +441,7 @@ def convergence_figure(history: Sequence[float], iterations: Mapping[str, Any], 
         if resi_frot:
             ax2.axhline(resi_frot, color="k", ls="--", lw=1, label=f"RESI_FROT {resi_frot:.2g}")
         ax2.set_xticks(k)
+        plain_log_labels(ax2)
         ax2.set_xlabel("friction threshold iteration")
         ax2.set_ylabel("max |dLAGS_C| / max |LAGS_C| (-)")
         ax2.set_title("friction threshold loop")
