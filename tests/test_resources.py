@@ -198,10 +198,25 @@ def test_plot_helpers_start_before_the_solve_where_a_core_is_spare(tmp_path, mon
     assert {f"plot_helper_cpu:{name}" for name in plots.PLOTS_2D} <= set(steps)
 
 
-def test_plot_jobs_are_dealt_to_the_helpers_in_turn(tmp_path):
+def test_helpers_with_the_outputs_leave_rank_0_its_core(monkeypatch):
+    """On two processes of a 2-core machine the helpers start with the outputs, on the
+    core of the process that waits: one of them (rank 0 builds the post mesh meanwhile)."""
     from xfemcontact.output.plotter import PlotHelper
 
-    helper = PlotHelper.start(1, idle_ranks=1)
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    assert PlotHelper.start(2).procs == []                      # no core spare, none idle
+    helper = PlotHelper.start(2, idle_ranks=1)
+    try:
+        assert len(helper.procs) == 1
+    finally:
+        helper.stop()
+
+
+def test_plot_jobs_are_dealt_to_the_helpers_in_turn(tmp_path, monkeypatch):
+    from xfemcontact.output.plotter import PlotHelper
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    helper = PlotHelper.start(1)
     try:
         assert len(helper.procs) == 2
         jobs = [("plot_a.png", "multipliers_figure", ()), ("plot_b.png", "multipliers_figure", ())]
