@@ -227,3 +227,19 @@ def test_plot_jobs_are_dealt_to_the_helpers_in_turn(tmp_path, monkeypatch):
     assert not helper.running and helper.procs == []
 
 
+def test_two_helpers_import_in_turn_and_both_draw(tmp_path, monkeypatch):
+    """The second helper waits for the first one's import (a pipe it closes), then both
+    draw what they were dealt."""
+    from xfemcontact.output.plotter import PlotHelper
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    helper = PlotHelper.start(1)
+    assert len(helper.procs) == 2
+    record = {"newton_per_solve": [1]}
+    jobs = [(f"plot_{k}.png", "convergence_figure", ([1.0, 1e-3], record, k)) for k in "ab"]
+    assert helper.send(jobs, tmp_path)
+    assert sorted(helper.finish()) == ["plot_a.png", "plot_b.png"]
+    assert (tmp_path / "plot_a.png").stat().st_size > 1000 and (tmp_path / "plot_b.png").stat().st_size > 1000
+    assert helper.times["import"] > 0 and helper.procs == []
+
+

@@ -141,6 +141,10 @@ def run(case_path: str | os.PathLike[str], outdir: str | None = None, overwrite:
         from xfemcontact.model import Model
 
         preflight.check_case(case, mpi)       # a rectangle that cannot fit: refused before it is built
+        if case.output.plots and not case.instants.given:
+            # where a core is spare the plot helpers start now: they import matplotlib,
+            # one after the other on that core, while the run builds and solves its model
+            folder.start_plot_helper()
         with timing.phase("mesh"):
             raw = preflight.build_mesh(case, mpi)
         with timing.phase("checks"):
@@ -162,12 +166,6 @@ def run(case_path: str | os.PathLike[str], outdir: str | None = None, overwrite:
         if case.instants.given:
             assert checkpoints is not None           # made for a case with [instants]
             return _run_history(case, model, folder, checkpoints, outdir, pre, comm, quiet, t0)
-        if case.output.plots:
-            # matplotlib imported while the solve runs (when the machine has a spare core).
-            # The run keeps its peak memory to its end (glibc does not trim:
-            # timing.release_heap), so the helper beside it raises the machine's peak
-            # as much as when it started with the outputs, no more
-            folder.start_plot_helper()
         tic = time.perf_counter()
         reason = model.solve()
         seconds = time.perf_counter() - tic

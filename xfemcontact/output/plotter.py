@@ -5,8 +5,9 @@ it.  Rank 0 starts up to :data:`HELPERS` helper Python processes
 (:meth:`PlotHelper.start`):
 
 * on a machine with a core the run does not use (one process on a 2-core machine),
-  before the solve: they import matplotlib meanwhile.  Whatever the run's size: the
-  run keeps its peak memory to its end (glibc does not trim, see
+  when the run starts: they import matplotlib one after the other on that core while
+  the run builds and solves its model.  Whatever the run's size: the run keeps its
+  peak memory to its end (glibc does not trim, see
   :func:`xfemcontact.timing.release_heap`), so a helper beside it (60 MB resident,
   38 MB of its own) raises the machine's peak as much whenever it starts;
 * on several processes, when the output phase begins, on the cores of the other
@@ -77,7 +78,7 @@ class PlotHelper:
         or ``idle_ranks`` processes of the run on this machine that wait without
         spinning while the helpers draw (:func:`xfemcontact.output.results.wait_quietly`),
         up to :data:`HELPERS` of them: one per free core, and one more for this process's
-        own core when they start before the solve (this process then waits while they
+        own core when they start with the run (this process then waits while they
         draw; with the outputs it builds the post mesh while they import matplotlib: a
         second helper on two processes made that slower, QUAD8 320 output 1.02 - 1.09 s
         with one helper, 1.31 - 1.36 s with two)."""
@@ -86,13 +87,31 @@ class PlotHelper:
             return helper
         free = (os.cpu_count() or 1) - comm_size + idle_ranks
         count = max(1, min(HELPERS, free + 1 if idle_ranks == 0 else free))
-        for _ in range(count):
+        # the helpers import matplotlib one after the other, so that they take one core
+        # and leave the run its own: each waits for the end of a pipe that the one before
+        # closes once it has imported (or dies)
+        wait = -1
+        for k in range(count):
+            done_r, done_w = os.pipe() if k + 1 < count else (-1, -1)
+            fds = tuple(fd for fd in (wait, done_w) if fd >= 0)
             try:
                 helper.procs.append(subprocess.Popen(
-                    [sys.executable, "-c", "from xfemcontact.output.plotter import serve; serve()"],
-                    stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, close_fds=True))
+                    [sys.executable, "-c", "from xfemcontact.output.plotter import serve; serve()",
+                     str(wait), str(done_w)],
+                    stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                    close_fds=True, pass_fds=fds))
             except OSError:
+                for fd in (done_r, done_w):
+                    if fd >= 0:
+                        os.close(fd)
                 break
+            for fd in fds:                   # the helper's ends
+                os.close(fd)
+            wait = done_r
+        else:
+            return helper
+        if wait >= 0:                        # a helper could not start: nobody waits on this
+            os.close(wait)
         return helper
 
     @property
@@ -200,6 +219,14 @@ def serve() -> None:
         os.sched_setaffinity(0, range(os.cpu_count() or 1))    # not bound to the run's core
     except (AttributeError, OSError):
         pass
+    wait, done = (int(a) for a in sys.argv[1:3]) if len(sys.argv) >= 3 else (-1, -1)
+    if wait >= 0:                        # the helper before is importing: wait for it
+        try:
+            while os.read(wait, 1):
+                pass
+        except OSError:
+            pass
+        os.close(wait)
     import time
 
     t0 = time.process_time()
@@ -213,6 +240,8 @@ def serve() -> None:
 
     Figure()                             # fonts and rc parameters loaded before the data comes
     times = {"import": round(time.process_time() - t0, 4)}
+    if done >= 0:
+        os.close(done)                   # the next helper may import now
     done: list[str] = []
     stdin = sys.stdin.buffer
     while True:
