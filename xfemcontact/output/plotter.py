@@ -219,14 +219,14 @@ def serve() -> None:
         os.sched_setaffinity(0, range(os.cpu_count() or 1))    # not bound to the run's core
     except (AttributeError, OSError):
         pass
-    wait, done = (int(a) for a in sys.argv[1:3]) if len(sys.argv) >= 3 else (-1, -1)
-    if wait >= 0:                        # the helper before is importing: wait for it
+    wait_fd, done_fd = (int(a) for a in sys.argv[1:3]) if len(sys.argv) >= 3 else (-1, -1)
+    if wait_fd >= 0:                     # the helper before is importing: wait for it
         try:
-            while os.read(wait, 1):
+            while os.read(wait_fd, 1):
                 pass
         except OSError:
             pass
-        os.close(wait)
+        os.close(wait_fd)
     import time
 
     t0 = time.process_time()
@@ -240,8 +240,8 @@ def serve() -> None:
 
     Figure()                             # fonts and rc parameters loaded before the data comes
     times = {"import": round(time.process_time() - t0, 4)}
-    if done >= 0:
-        os.close(done)                   # the next helper may import now
+    if done_fd >= 0:
+        os.close(done_fd)                # the next helper may import now
     done: list[str] = []
     stdin = sys.stdin.buffer
     while True:
