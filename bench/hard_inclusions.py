@@ -19,14 +19,11 @@ largest condition violation at the dofs, max LAGS_C (Pa), max |LAGS_F1| and the 
 point gap (m; displacements about 1e-3 m).  Written to ``bench/results/<name>.md`` and ``.json``.
 """
 import argparse
-import concurrent.futures
 import importlib.util
 import itertools
 import pathlib
 import re
-import shutil
 import sys
-import time
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 _spec = importlib.util.spec_from_file_location("inclusion_family", ROOT / "bench" / "inclusion_family.py")
@@ -57,27 +54,17 @@ def variant(cell: str, shape: str, load: str, mu: float, n: int = 24) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--cells", nargs="+", default=["QUAD8", "TRIA6"], choices=["QUAD8", "TRIA6"])
+    family.add_common_arguments(ap, "hard_inclusions")
     ap.add_argument("--n", type=int, default=24, help="cells per side")
-    ap.add_argument("--slots", type=int, default=2, help="runs at a time")
-    ap.add_argument("--scratch", default="/tmp/xfc_hard_inclusions")
-    ap.add_argument("--name", default="hard_inclusions")
-    ap.add_argument("--limit", type=int, default=25, help="Newton iterations counted as slow above this")
-    ap.add_argument("options", nargs="*", help="xfemcontact options, after --")
     a = ap.parse_args()
-    scratch = pathlib.Path(a.scratch)
-    shutil.rmtree(scratch, ignore_errors=True)
-    scratch.mkdir(parents=True)
+    scratch = family.fresh_scratch(a.scratch)
     jobs = []
     for shape, load, mu, cell in itertools.product(SHAPES, LOADS, MUS, a.cells):
         name = f"{shape}_{load}_mu{mu}_{cell.lower()}"
         toml = scratch / f"{name}.toml"
         toml.write_text(variant(cell, shape, load, mu, a.n))
         jobs.append(dict(name=name, cell=cell, n=a.n, radius=None, toml=toml, out=scratch / name))
-    t0 = time.perf_counter()
-    with concurrent.futures.ThreadPoolExecutor(a.slots) as pool:
-        rows = list(pool.map(lambda j: family.run(j, ["--no-plots", *a.options]), jobs))
-    total = time.perf_counter() - t0
+    rows, total = family.run_all(jobs, a.slots, ["--no-plots", *a.options])
     lines = [f"`python bench/hard_inclusions.py {' '.join(sys.argv[1:])}`: {len(rows)} runs in {total:.0f} s", "",
              "| variant | converged | Newton (coarse start) | threshold it. | hand-overs | forced loops | "
              "dof conditions | max LAGS_C (Pa) | max abs LAGS_F1 | min point gap (m) |",

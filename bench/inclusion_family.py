@@ -155,23 +155,43 @@ def write_results(name: str, lines: list[str], rows: list[dict]) -> None:
     print(f"\nwrote {res / name}.md and .json")
 
 
+def add_common_arguments(ap: argparse.ArgumentParser, name: str) -> None:
+    """The options this script shares with bench/hard_inclusions.py (``name``: the
+    default results name and scratch folder)."""
+    ap.add_argument("--cells", nargs="+", default=["QUAD8", "TRIA6"], choices=["QUAD8", "TRIA6"])
+    ap.add_argument("--slots", type=int, default=2, help="runs at a time")
+    ap.add_argument("--scratch", default=f"/tmp/xfc_{name}")
+    ap.add_argument("--name", default=name)
+    ap.add_argument("--limit", type=int, default=25, help="Newton iterations counted as slow above this")
+    ap.add_argument("options", nargs="*", help="xfemcontact options, after --")
+
+
+def fresh_scratch(path: str) -> pathlib.Path:
+    """The scratch folder ``path``, emptied."""
+    scratch = pathlib.Path(path)
+    shutil.rmtree(scratch, ignore_errors=True)
+    scratch.mkdir(parents=True)
+    return scratch
+
+
+def run_all(jobs: list, slots: int, options: list) -> tuple[list, float]:
+    """:func:`run` of every job, ``slots`` at a time: the rows and the seconds taken."""
+    t0 = time.perf_counter()
+    with concurrent.futures.ThreadPoolExecutor(slots) as pool:
+        rows = list(pool.map(lambda j: run(j, options), jobs))
+    return rows, time.perf_counter() - t0
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--cells", nargs="+", default=["QUAD8", "TRIA6"], choices=["QUAD8", "TRIA6"])
+    add_common_arguments(ap, "inclusion_family")
     ap.add_argument("--n", nargs="+", type=int, default=[16, 20, 24, 30, 40], help="cells per side")
     ap.add_argument("--radius", nargs="+", type=float, default=[2.1, 2.3, 2.45], help="m")
     ap.add_argument("--shift", nargs="+", type=float, default=[0.0],
                     help="moves of the centre along x and y, in cells (0.25: a quarter cell)")
     ap.add_argument("--algo", choices=["AUTO", "STABLE", "NON"], help="[contact] algo_lagr (default: the case's)")
-    ap.add_argument("--slots", type=int, default=2, help="runs at a time")
-    ap.add_argument("--scratch", default="/tmp/xfc_inclusion_family")
-    ap.add_argument("--name", default="inclusion_family")
-    ap.add_argument("--limit", type=int, default=25, help="Newton iterations counted as slow above this")
-    ap.add_argument("options", nargs="*", help="xfemcontact options, after --")
     a = ap.parse_args()
-    scratch = pathlib.Path(a.scratch)
-    shutil.rmtree(scratch, ignore_errors=True)
-    scratch.mkdir(parents=True)
+    scratch = fresh_scratch(a.scratch)
     text = TEMPLATE.read_text()
     jobs = []
     for cell in a.cells:
@@ -182,10 +202,7 @@ def main() -> None:
                     toml = scratch / f"{name}.toml"
                     toml.write_text(variant(text, cell, n, radius, a.algo, shift))
                     jobs.append(dict(name=name, cell=cell, n=n, radius=radius, toml=toml, out=scratch / name))
-    t0 = time.perf_counter()
-    with concurrent.futures.ThreadPoolExecutor(a.slots) as pool:
-        rows = list(pool.map(lambda j: run(j, a.options), jobs))
-    total = time.perf_counter() - t0
+    rows, total = run_all(jobs, a.slots, a.options)
     head = ("| variant | converged | Newton | threshold it. | forced loops | hand-overs | dof conditions | "
             "min point gap (m) | s |")
     lines = [f"`python bench/inclusion_family.py {' '.join(sys.argv[1:])}`: {len(rows)} runs in {total:.0f} s",
